@@ -1,0 +1,172 @@
+//! Scenes with known answers (`ALGORITHM.md` §7), generated on the fly: the closed-sphere
+//! furnace and the point light over a plane. Used by the tests, the benches and the
+//! reference's self-check; each writes an OBJ/MTL/TOML triple into a directory.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use crate::error::{Error, Result};
+
+/// Vertices and faces of an icosphere of radius `r` with `subdiv` subdivisions, faces
+/// oriented outwards.
+pub fn icosphere(r: f64, subdiv: u32) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let t = (1.0 + 5f64.sqrt()) / 2.0;
+    let mut v: Vec<[f64; 3]> = vec![
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
+    ];
+    let mut f: Vec<[usize; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    let norm = |p: [f64; 3]| {
+        let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        [p[0] / l, p[1] / l, p[2] / l]
+    };
+    for p in &mut v {
+        *p = norm(*p);
+    }
+    for _ in 0..subdiv {
+        let mut mid = std::collections::HashMap::new();
+        let mut nf = Vec::with_capacity(f.len() * 4);
+        let mut midpoint = |a: usize, b: usize, v: &mut Vec<[f64; 3]>| {
+            *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                let (p, q) = (v[a], v[b]);
+                v.push(norm([
+                    (p[0] + q[0]) / 2.0,
+                    (p[1] + q[1]) / 2.0,
+                    (p[2] + q[2]) / 2.0,
+                ]));
+                v.len() - 1
+            })
+        };
+        for [a, b, c] in f {
+            let ab = midpoint(a, b, &mut v);
+            let bc = midpoint(b, c, &mut v);
+            let ca = midpoint(c, a, &mut v);
+            nf.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = nf;
+    }
+    for p in &mut v {
+        *p = [p[0] * r, p[1] * r, p[2] * r];
+    }
+    (v, f)
+}
+
+/// OBJ text for vertices and faces with one material.
+pub fn obj_text(v: &[[f64; 3]], f: &[[usize; 3]], mtllib: &str, material: &str) -> String {
+    let mut s = format!("mtllib {mtllib}\nusemtl {material}\n");
+    for p in v {
+        let _ = writeln!(s, "v {} {} {}", p[0], p[1], p[2]);
+    }
+    for t in f {
+        let _ = writeln!(s, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1);
+    }
+    s
+}
+
+fn write(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let p = dir.join(name);
+    std::fs::write(&p, text).map_err(|e| Error::io(&p, e))?;
+    Ok(p)
+}
+
+/// The furnace: a closed sphere of radius `r` and albedo `rho`, a point light of
+/// intensity `i` at `light` inside it (power `Φ = 4πi`). Whatever the light's position,
+/// bounce `k` alone gives `ρ^k Φ/(4πr²)` at every point, so after `k` bounces
+/// `E_ind = Φ/(4πr²) Σ_{b=1..k} ρ^b`; at the centre `E_d = i/r²` too. Returns the scene
+/// file's path; `solver` is appended to its `[solver]` table.
+pub fn furnace(
+    dir: &Path,
+    r: f64,
+    subdiv: u32,
+    rho: f64,
+    light: [f64; 3],
+    i: f64,
+    solver: &str,
+) -> Result<PathBuf> {
+    let (v, f) = icosphere(r, subdiv);
+    write(dir, "sphere.obj", &obj_text(&v, &f, "sphere.mtl", "wall"))?;
+    write(
+        dir,
+        "sphere.mtl",
+        &format!("newmtl wall\nKd {rho} {rho} {rho}\n"),
+    )?;
+    write(
+        dir,
+        "furnace.toml",
+        &format!(
+            "[[object]]\nmesh = \"sphere.obj\"\n\n[[light]]\ntype = \"point\"\nposition = [{}, {}, {}]\n\
+             intensity = [{i}, {i}, {i}]\n\n[camera]\nposition = [0.0, 0.0, {cz}]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 90.0\nwidth = 32\nheight = 32\n\n[solver]\n{solver}\n",
+            light[0],
+            light[1],
+            light[2],
+            cz = r * 0.5
+        ),
+    )
+}
+
+/// Closed-form furnace answers: `(E_d for a centred light, E_ind after k bounces,
+/// bounce k alone)`.
+pub fn furnace_expected(r: f64, rho: f64, i: f64, k: u32) -> (f64, f64, f64) {
+    let ed = i / (r * r);
+    let total: f64 = (1..=k).map(|b| rho.powi(b as i32)).sum();
+    (ed, ed * total, ed * rho.powi(k as i32))
+}
+
+/// A square plane `[-s, s]² × {0}` (normal +y) with a point light at height `h` above the
+/// origin: `E_d(d) = I h / (h² + d²)^{3/2}` at distance `d` from the foot point.
+pub fn plane(dir: &Path, s: f64, h: f64, i: f64, tessellate: u32, solver: &str) -> Result<PathBuf> {
+    write(
+        dir,
+        "plane.obj",
+        &format!("mtllib plane.mtl\nusemtl floor\nv {s} 0 {s}\nv {s} 0 -{s}\nv -{s} 0 -{s}\nv -{s} 0 {s}\nf 1 2 3\nf 1 3 4\n"),
+    )?;
+    write(dir, "plane.mtl", "newmtl floor\nKd 0.5 0.5 0.5\n")?;
+    write(
+        dir,
+        "plane.toml",
+        &format!(
+            "[[object]]\nmesh = \"plane.obj\"\ntessellate = {tessellate}\n\n[[light]]\ntype = \"point\"\n\
+             position = [0.0, {h}, 0.0]\nintensity = [{i}, {i}, {i}]\n\n[camera]\nposition = [0.0, {cy}, 0.0]\n\
+             target = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\nfov = 60.0\nwidth = 32\nheight = 32\n\n[solver]\n{solver}\n",
+            cy = h * 2.0
+        ),
+    )
+}
+
+/// `I h / (h² + d²)^{3/2}`.
+pub fn plane_expected(h: f64, i: f64, d: f64) -> f64 {
+    i * h / (h * h + d * d).powf(1.5)
+}

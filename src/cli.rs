@@ -1,0 +1,377 @@
+//! The `meshrad` command line: `solve` (the default), `probe`, `devices`.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use serde::Serialize;
+
+use crate::hierarchy::{Hierarchy, HierarchyStats};
+use crate::output::{self, image, ply, probe};
+use crate::params::{SolverParams, Variant};
+use crate::progress::Progress;
+use crate::scene::{LoadReport, Scene};
+use crate::transport::{self, cpu::CpuBackend, Solution, SolveStats};
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "meshrad",
+    version,
+    about = "Meshless hierarchical radiosity on the CPU and on Vulkan compute",
+    long_about = "Meshless hierarchical radiosity (Zollhöfer & Stamminger 2011).\n\
+                  With no command, solves the shipped Cornell box and writes images to ./out."
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Solve a scene and write images, stats.json and optionally the node cloud.
+    Solve(SolveArgs),
+    /// Solve a scene and print the irradiance at given surface points (CSV).
+    Probe(ProbeArgs),
+}
+
+/// Where the transport runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum BackendChoice {
+    /// A Vulkan device if one is usable, else the CPU.
+    Auto,
+    /// The CPU reference.
+    Cpu,
+    /// Vulkan compute.
+    Gpu,
+}
+
+/// Flags shared by every command that solves.
+#[derive(Args, Debug, Clone)]
+pub struct SolverArgs {
+    /// Where the transport runs.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub backend: BackendChoice,
+    /// Hierarchy variant (paper Table 2).
+    #[arg(long, value_enum)]
+    pub variant: Option<Variant>,
+    /// Bounces of indirect light.
+    #[arg(long)]
+    pub bounces: Option<u32>,
+    /// Rays per gathering integral.
+    #[arg(long)]
+    pub rays: Option<u32>,
+    /// Seed of all random choices.
+    #[arg(long)]
+    pub seed: Option<u32>,
+    /// Any other [solver] key, as KEY=VALUE (repeatable), e.g. --set eps_rel=0.05.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// Print per-phase and per-kernel times to stderr.
+    #[arg(long)]
+    pub stats: bool,
+    /// No progress output.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+#[derive(Args, Debug)]
+struct SolveArgs {
+    /// Scene file (TOML); default: the embedded Cornell box.
+    scene: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    /// Also write the node cloud as PLY.
+    #[arg(long, value_name = "FILE.ply")]
+    export_nodes: Option<PathBuf>,
+    #[command(flatten)]
+    solver: SolverArgs,
+}
+
+#[derive(Args, Debug)]
+struct ProbeArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Points file: `px py pz nx ny nz` per line, `#` comments.
+    #[arg(long)]
+    points: PathBuf,
+    /// Write the CSV here instead of stdout.
+    #[arg(long, value_name = "FILE.csv")]
+    out: Option<PathBuf>,
+    #[command(flatten)]
+    solver: SolverArgs,
+}
+
+/// Entry point of the binary.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        None => solve_cmd(SolveArgs {
+            scene: None,
+            out: PathBuf::from("out"),
+            export_nodes: None,
+            solver: SolverArgs {
+                backend: BackendChoice::Auto,
+                variant: None,
+                bounces: None,
+                rays: None,
+                seed: None,
+                set: Vec::new(),
+                stats: false,
+                quiet: false,
+            },
+        }),
+        Some(Command::Solve(a)) => solve_cmd(a),
+        Some(Command::Probe(a)) => probe_cmd(a),
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+impl SolverArgs {
+    /// The `[solver]` overrides these flags ask for.
+    pub fn overrides(&self) -> Result<Vec<(String, toml::Value)>> {
+        let mut o = Vec::new();
+        if let Some(v) = self.variant {
+            o.push(("variant".into(), toml::Value::String(v.name().into())));
+        }
+        for (k, v) in [
+            ("bounces", self.bounces),
+            ("rays", self.rays),
+            ("seed", self.seed),
+        ] {
+            if let Some(v) = v {
+                o.push((k.into(), toml::Value::Integer(v as i64)));
+            }
+        }
+        for s in &self.set {
+            let (k, v) = s
+                .split_once('=')
+                .with_context(|| format!("--set `{s}`: expected KEY=VALUE"))?;
+            let value = toml::from_str::<toml::Table>(&format!("v = {v}"))
+                .ok()
+                .and_then(|mut t| t.remove("v"))
+                .unwrap_or_else(|| toml::Value::String(v.to_string()));
+            o.push((k.trim().to_string(), value));
+        }
+        Ok(o)
+    }
+}
+
+/// Loads a scene (or the embedded Cornell box) with the flags' overrides.
+pub fn load_scene(path: Option<&Path>, args: &SolverArgs) -> Result<Scene> {
+    let overrides = args.overrides()?;
+    Ok(match path {
+        Some(p) => Scene::load(p, &overrides)?,
+        None => Scene::embedded_cornell(&overrides)?,
+    })
+}
+
+/// Timings of the phases of one run.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct PhaseSeconds {
+    pub load: f64,
+    pub hierarchy: f64,
+    pub solve: f64,
+    pub output: f64,
+    pub total: f64,
+}
+
+/// Everything stats.json holds.
+#[derive(Serialize)]
+pub struct RunStats<'a> {
+    pub scene: SceneSummary,
+    pub backend: String,
+    pub variant: &'static str,
+    pub seed: u32,
+    pub params: &'a SolverParams,
+    pub hierarchy: &'a HierarchyStats,
+    pub solve: &'a SolveStats,
+    pub image: ImageSummary,
+    pub seconds: PhaseSeconds,
+}
+
+/// The rendered images.
+#[derive(Serialize)]
+pub struct ImageSummary {
+    pub width: u32,
+    pub height: u32,
+    pub output_level: u32,
+    /// Pixels whose indirect irradiance came out negative (delta-hierarchy ringing) and
+    /// were clamped to zero.
+    pub negative_indirect_pixels_clamped: usize,
+}
+
+/// The scene's size.
+#[derive(Serialize)]
+pub struct SceneSummary {
+    pub path: String,
+    pub objects: usize,
+    pub triangles: usize,
+    pub lights: usize,
+    pub textured: bool,
+    pub load: LoadReport,
+}
+
+impl SceneSummary {
+    pub fn of(scene: &Scene) -> Self {
+        SceneSummary {
+            path: scene.path.display().to_string(),
+            objects: scene.objects.len(),
+            triangles: scene.triangle_count(),
+            lights: scene.lights.len(),
+            textured: scene.textured(),
+            load: scene.report.clone(),
+        }
+    }
+}
+
+/// Hierarchy and transport for a loaded scene on the chosen backend.
+pub fn run_solver(
+    scene: &Scene,
+    choice: BackendChoice,
+    progress: &Progress,
+) -> Result<(Hierarchy, Solution, f64, f64)> {
+    let t = Instant::now();
+    let h = Hierarchy::build(scene, progress)?;
+    let th = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let sol = match choice {
+        BackendChoice::Gpu => anyhow::bail!("the GPU backend is not available in this build"),
+        BackendChoice::Auto | BackendChoice::Cpu => {
+            let mut b = CpuBackend::new(scene, &h, progress);
+            transport::solve(scene, &mut b, progress)?
+        }
+    };
+    Ok((h, sol, th, t.elapsed().as_secs_f64()))
+}
+
+fn report_load(scene: &Scene, quiet: bool) {
+    let r = &scene.report;
+    if r.degenerate_dropped > 0 {
+        eprintln!(
+            "note: dropped {} degenerate triangle(s)",
+            r.degenerate_dropped
+        );
+    }
+    if !r.emissive_materials_ignored.is_empty() && !quiet {
+        eprintln!(
+            "note: emission (Ke) is not supported yet; ignored for material(s) {}",
+            r.emissive_materials_ignored.join(", ")
+        );
+    }
+    if r.faces_without_material > 0 && !quiet {
+        eprintln!(
+            "note: {} face(s) have no material; albedo {:?} used",
+            r.faces_without_material,
+            crate::scene::obj::DEFAULT_KD
+        );
+    }
+}
+
+fn print_stats(h: &Hierarchy, sol: &Solution, sec: &PhaseSeconds) {
+    let s = &sol.stats;
+    eprintln!("nodes per level: {:?}", h.stats.nodes_per_level);
+    eprintln!(
+        "phases: load {:.3} s, hierarchy {:.3} s, direct {:.3} s, bounces {:.3} s, output {:.3} s",
+        sec.load, sec.hierarchy, s.seconds_direct, s.seconds_bounces, sec.output
+    );
+    for b in &s.bounces {
+        eprintln!(
+            "bounce {}: {:.3} s, integrals per level {:?}, refined {:?}, un-shot {:.3e}",
+            b.bounce, b.seconds, b.integrals_per_level, b.refined_per_level, b.unshot_ratio
+        );
+    }
+    let rays_s = s.rays_traced as f64 / s.seconds_bounces.max(1e-9);
+    eprintln!(
+        "integrals {}, rays {} ({:.2} Mrays/s over the bounces)",
+        s.integrals,
+        s.rays_traced,
+        rays_s / 1e6
+    );
+    for (k, t) in &s.kernel_seconds {
+        eprintln!("kernel {k}: {:.4} s", t);
+    }
+}
+
+fn solve_cmd(a: SolveArgs) -> Result<()> {
+    let progress = Progress::new(a.solver.quiet);
+    let t_all = Instant::now();
+    let t = Instant::now();
+    let scene = load_scene(a.scene.as_deref(), &a.solver)?;
+    report_load(&scene, a.solver.quiet);
+    let load = t.elapsed().as_secs_f64();
+    let (h, sol, th, ts) = run_solver(&scene, a.solver.backend, &progress)?;
+    let t = Instant::now();
+    progress.stage("images");
+    output::ensure_dir(&a.out)?;
+    let img = image::render(&scene, &h, &sol, scene.params.output_level(), &progress);
+    image::write_all(&a.out, &img)?;
+    if let Some(p) = &a.export_nodes {
+        ply::write(p, &scene, &h, &sol)?;
+    }
+    let seconds = PhaseSeconds {
+        load,
+        hierarchy: th,
+        solve: ts,
+        output: t.elapsed().as_secs_f64(),
+        total: t_all.elapsed().as_secs_f64(),
+    };
+    progress.finish();
+    if a.solver.stats {
+        print_stats(&h, &sol, &seconds);
+    }
+    let stats = RunStats {
+        scene: SceneSummary::of(&scene),
+        backend: sol.stats.backend.clone(),
+        variant: sol.variant.name(),
+        seed: scene.params.seed,
+        params: &scene.params,
+        hierarchy: &h.stats,
+        solve: &sol.stats,
+        image: ImageSummary {
+            width: img.width,
+            height: img.height,
+            output_level: scene.params.output_level(),
+            negative_indirect_pixels_clamped: img.clamped,
+        },
+        seconds,
+    };
+    output::write_json(&a.out.join("stats.json"), &stats)?;
+    if !a.solver.quiet {
+        println!(
+            "{}: {} nodes, {} integrals in {:.2} s ({}, {}); images in {}",
+            scene.path.display(),
+            h.nodes.len(),
+            sol.stats.integrals,
+            stats.seconds.total,
+            sol.stats.backend,
+            sol.variant.name(),
+            a.out.display()
+        );
+    }
+    Ok(())
+}
+
+fn probe_cmd(a: ProbeArgs) -> Result<()> {
+    let progress = Progress::new(a.solver.quiet);
+    let probes = probe::read(&a.points)?;
+    let scene = load_scene(Some(&a.scene), &a.solver)?;
+    report_load(&scene, a.solver.quiet);
+    let (h, sol, _, _) = run_solver(&scene, a.solver.backend, &progress)?;
+    let values = probe::evaluate(&scene, &h, &sol, &probes, scene.params.output_level());
+    let text = probe::csv(&probes, &values);
+    progress.finish();
+    match &a.out {
+        Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
+        None => print!("{text}"),
+    }
+    Ok(())
+}

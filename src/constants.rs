@@ -1,0 +1,20 @@
+//! Constants shared with GLSL. `build.rs` parses this file (one `pub const NAME: u32 = V;`
+//! per line) and writes `#define NAME Vu` into the generated `constants.glsl`, so that
+//! each value is typed once.
+
+/// The most hierarchy levels a scene may ask for.
+pub const MAX_LEVELS: u32 = 8;
+/// Sentinel for "none" in index fields.
+pub const NONE: u32 = 0xffff_ffff;
+/// Light kinds.
+pub const LIGHT_POINT: u32 = 0;
+pub const LIGHT_SPOT: u32 = 1;
+pub const LIGHT_DIRECTIONAL: u32 = 2;
+/// BVH traversal stack entries; a deeper BVH is rejected at build time.
+pub const BVH_STACK: u32 = 64;
+/// kd-tree traversal stack entries (enough for 2^31 nodes).
+pub const KD_STACK: u32 = 32;
+/// Threads per workgroup of the per-integral kernels.
+pub const GATHER_GROUP: u32 = 128;
+/// Threads per workgroup of the per-element kernels.
+pub const LINEAR_GROUP: u32 = 64;

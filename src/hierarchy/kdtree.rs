@@ -1,0 +1,178 @@
+//! Median-split kd-tree over the node centres of one level of one object, one node per
+//! leaf (paper §4.2). The nodes themselves are reordered; the tree needs no child
+//! pointers: the range `[lo, hi)` splits at `mid = (lo + hi) / 2`, and the split plane of
+//! that inner node is stored at index `mid` (every `mid` is unique), 8 bytes each.
+//! GLSL twins: `kd_range` / `kd_first_leaf` in `glsl/include/hierarchy.glsl`.
+
+use glam::Vec3;
+
+use crate::layout::{KdSplit, Node};
+
+/// Stack entries for traversal: enough for 2^31 nodes.
+pub const KD_STACK: usize = crate::constants::KD_STACK as usize;
+
+/// Reorders `nodes` into kd order and fills `splits` (same length).
+pub fn build(nodes: &mut [Node], splits: &mut [KdSplit]) {
+    build_range(nodes, splits, 0, nodes.len());
+}
+
+fn build_range(nodes: &mut [Node], splits: &mut [KdSplit], lo: usize, hi: usize) {
+    if hi - lo < 2 {
+        return;
+    }
+    let (mut a, mut b) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for n in &nodes[lo..hi] {
+        a = a.min(Vec3::from(n.pos));
+        b = b.max(Vec3::from(n.pos));
+    }
+    let ext = b - a;
+    let dim = if ext.x >= ext.y && ext.x >= ext.z {
+        0
+    } else if ext.y >= ext.z {
+        1
+    } else {
+        2
+    };
+    let mid = (lo + hi) / 2;
+    nodes[lo..hi].select_nth_unstable_by(mid - lo, |p, q| p.pos[dim].total_cmp(&q.pos[dim]));
+    splits[mid] = KdSplit {
+        value: nodes[mid].pos[dim],
+        dim: dim as u32,
+    };
+    build_range(nodes, splits, lo, mid);
+    build_range(nodes, splits, mid, hi);
+}
+
+/// Calls `f(i)` for every node `i` (local index) with `|x_i − p| < r`.
+#[inline]
+pub fn range(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut f: impl FnMut(usize)) {
+    if nodes.is_empty() {
+        return;
+    }
+    let mut stack = [(0u32, 0u32); KD_STACK];
+    let mut sp = 1;
+    stack[0] = (0, nodes.len() as u32);
+    let r2 = r * r;
+    while sp > 0 {
+        sp -= 1;
+        let (mut lo, mut hi) = stack[sp];
+        loop {
+            if hi - lo == 1 {
+                if (Vec3::from(nodes[lo as usize].pos) - p).length_squared() < r2 {
+                    f(lo as usize);
+                }
+                break;
+            }
+            let mid = (lo + hi) / 2;
+            let s = splits[mid as usize];
+            let d = p[s.dim as usize] - s.value;
+            let (near, far) = if d < 0.0 {
+                ((lo, mid), (mid, hi))
+            } else {
+                ((mid, hi), (lo, mid))
+            };
+            if d.abs() < r {
+                stack[sp] = far;
+                sp += 1;
+            }
+            (lo, hi) = near;
+        }
+    }
+}
+
+/// The first leaf met by a near-first descent for `p` whose node lies within `r` and has
+/// a normal with `n · n_j > cos_min` (paper §5.1): the approximate reconstruction.
+#[inline]
+pub fn first_leaf(
+    nodes: &[Node],
+    splits: &[KdSplit],
+    p: Vec3,
+    n: Vec3,
+    r: f32,
+    cos_min: f32,
+) -> Option<usize> {
+    let mut found = None;
+    let mut stack = [(0u32, 0u32); KD_STACK];
+    let mut sp = usize::from(!nodes.is_empty());
+    stack[0] = (0, nodes.len() as u32);
+    let r2 = r * r;
+    while sp > 0 && found.is_none() {
+        sp -= 1;
+        let (mut lo, mut hi) = stack[sp];
+        loop {
+            if hi - lo == 1 {
+                let nd = &nodes[lo as usize];
+                if (Vec3::from(nd.pos) - p).length_squared() < r2
+                    && n.dot(Vec3::from(nd.normal)) > cos_min
+                {
+                    found = Some(lo as usize);
+                }
+                break;
+            }
+            let mid = (lo + hi) / 2;
+            let s = splits[mid as usize];
+            let d = p[s.dim as usize] - s.value;
+            let (near, far) = if d < 0.0 {
+                ((lo, mid), (mid, hi))
+            } else {
+                ((mid, hi), (lo, mid))
+            };
+            if d.abs() < r {
+                stack[sp] = far;
+                sp += 1;
+            }
+            (lo, hi) = near;
+        }
+    }
+    found
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::rng::Rng;
+
+    fn cloud(n: usize) -> Vec<Node> {
+        let mut rng = Rng::new(3, 0);
+        (0..n)
+            .map(|i| Node {
+                pos: [rng.next_f32(), rng.next_f32(), rng.next_f32() * 0.1],
+                level: 0,
+                normal: [0.0, 0.0, 1.0],
+                object: i as u32,
+            })
+            .collect()
+    }
+
+    #[test]
+    fn range_matches_brute_force() {
+        for n in [1, 2, 3, 7, 100, 1000] {
+            let mut nodes = cloud(n);
+            let mut splits = vec![KdSplit::default(); n];
+            build(&mut nodes, &mut splits);
+            let mut rng = Rng::new(9, 1);
+            for _ in 0..200 {
+                let p = Vec3::new(rng.next_f32(), rng.next_f32(), 0.05);
+                let r = rng.next_f32() * 0.3;
+                let mut got = Vec::new();
+                range(&nodes, &splits, p, r, |i| got.push(i));
+                got.sort();
+                let want: Vec<usize> = (0..n)
+                    .filter(|&i| (Vec3::from(nodes[i].pos) - p).length_squared() < r * r)
+                    .collect();
+                assert_eq!(got, want);
+            }
+        }
+    }
+
+    #[test]
+    fn first_leaf_is_close() {
+        let mut nodes = cloud(2000);
+        let mut splits = vec![KdSplit::default(); nodes.len()];
+        build(&mut nodes, &mut splits);
+        let p = Vec3::new(0.5, 0.5, 0.05);
+        let i = first_leaf(&nodes, &splits, p, Vec3::Z, 0.2, 0.5).unwrap();
+        assert!((Vec3::from(nodes[i].pos) - p).length() < 0.2);
+        assert!(first_leaf(&nodes, &splits, p, -Vec3::Z, 0.2, 0.5).is_none());
+    }
+}

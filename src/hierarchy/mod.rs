@@ -1,0 +1,434 @@
+//! The meshless hierarchy (paper §3, `ALGORITHM.md` §3): per object, `m` Poisson-disk
+//! levels of basis-function centres in object space, a kd-tree per level, and parent
+//! relations carrying the pull-down weights `B_p^l(x_c)`.
+//!
+//! Layout (shared with the GPU): all nodes in one array, level-major, then by object;
+//! the nodes of one (object, level) are contiguous and in kd order.
+
+pub mod kdtree;
+pub mod poisson;
+pub mod weight;
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::layout::{KdSplit, Node, ObjectInfo, Parent};
+use crate::params::MAX_LEVELS;
+use crate::progress::Progress;
+use crate::scene::{reach, Scene};
+use poisson::Candidate;
+use weight::node_weight;
+
+/// Where one object's nodes of each level live, and the levels' radii in object space.
+#[derive(Clone, Debug, Default)]
+pub struct ObjectLevels {
+    pub start: Vec<u32>,
+    pub count: Vec<u32>,
+    pub radius: Vec<f32>,
+}
+
+/// What building the hierarchy did, for stats.json.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct HierarchyStats {
+    pub nodes_per_level: Vec<u32>,
+    pub candidates_per_level: Vec<u64>,
+    /// World-space Poisson radius `r_l`.
+    pub radius_per_level: Vec<f32>,
+    /// Children whose parent level has no weight at their centre (nearest parent used).
+    pub parent_holes_per_level: Vec<u32>,
+    /// Children with no same-side node on the parent level at all.
+    pub orphans_per_level: Vec<u32>,
+    pub reachable_area: f64,
+    pub reachable_sides: usize,
+    pub seconds_reach: f64,
+    pub seconds_candidates: f64,
+    pub seconds_poisson: f64,
+    pub seconds_kdtree: f64,
+    pub seconds_parents: f64,
+}
+
+/// The hierarchy of every object.
+#[derive(Clone, Debug)]
+pub struct Hierarchy {
+    pub levels: u32,
+    pub kappa: f32,
+    pub alpha: f32,
+    pub nodes: Vec<Node>,
+    pub splits: Vec<KdSplit>,
+    /// Global start of each level (`levels + 1` entries).
+    pub level_start: Vec<u32>,
+    pub objects: Vec<ObjectLevels>,
+    /// CSR: the parents of node `i` are `parents[parent_offset[i]..parent_offset[i + 1]]`.
+    pub parent_offset: Vec<u32>,
+    pub parents: Vec<Parent>,
+    /// CSR: children of node `i`.
+    pub child_offset: Vec<u32>,
+    pub children: Vec<u32>,
+    pub stats: HierarchyStats,
+}
+
+impl Hierarchy {
+    /// Builds the hierarchy of `scene` with its solver parameters.
+    pub fn build(scene: &Scene, progress: &Progress) -> Result<Hierarchy> {
+        let p = &scene.params;
+        let m = p.levels as usize;
+        let mut stats = HierarchyStats::default();
+        let t = Instant::now();
+        progress.stage("reachable surfaces");
+        let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
+        stats.seconds_reach = t.elapsed().as_secs_f64();
+        stats.reachable_sides = sides.iter().filter(|&&s| s).count();
+
+        // World-space radii from the total reachable area (§3: r_0 = sqrt(0.7 A / N_0)).
+        let areas: Vec<f64> = scene
+            .objects
+            .iter()
+            .map(|o| {
+                let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
+                let s = o.transform.scale as f64;
+                poisson::reachable_area(&scene.tris[r.clone()], &sides[r.start * 2..r.end * 2])
+                    * s
+                    * s
+            })
+            .collect();
+        let area: f64 = areas.iter().sum();
+        stats.reachable_area = area;
+        if area <= 0.0 {
+            return Err(Error::SceneValue {
+                path: scene.path.clone(),
+                key: "light".into(),
+                message: "no light reaches any surface: check the lights' positions and directions"
+                    .into(),
+            });
+        }
+        let r0 = (0.7 * area / p.coarsest as f64).sqrt();
+        let radius: Vec<f64> = (0..m).map(|l| r0 / (1u64 << l) as f64).collect();
+        stats.radius_per_level = radius.iter().map(|&r| r as f32).collect();
+        let expected = |a: f64, l: usize| 0.7 * a / (radius[l] * radius[l]);
+
+        // Candidates per object.
+        let t = Instant::now();
+        progress.stage("candidate samples");
+        let pools: Vec<Vec<Candidate>> = scene
+            .objects
+            .iter()
+            .enumerate()
+            .map(|(i, o)| {
+                let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
+                let want = (p.candidate_factor as f64 * expected(areas[i], m - 1)).ceil();
+                let count = (want as u64).min(p.max_candidates as u64) as usize;
+                poisson::candidates(
+                    &scene.tris[r.clone()],
+                    &sides[r.start * 2..r.end * 2],
+                    count,
+                    (p.seed as u64) << 32 | i as u64,
+                )
+            })
+            .collect();
+        stats.seconds_candidates = t.elapsed().as_secs_f64();
+
+        // Poisson-disk levels: independent per (object, level).
+        let t = Instant::now();
+        progress.stage("Poisson-disk levels");
+        let jobs: Vec<(usize, usize)> = (0..scene.objects.len())
+            .flat_map(|o| (0..m).map(move |l| (o, l)))
+            .collect();
+        let mut pool_sizes = vec![0u64; m];
+        let sets: Vec<Vec<Candidate>> = jobs
+            .par_iter()
+            .map(|&(o, l)| {
+                let pool = &pools[o];
+                let want = (p.candidate_factor as f64 * expected(areas[o], l)).ceil() as usize;
+                let n = want.clamp(pool.len().min(64), pool.len());
+                let r = radius[l] / scene.objects[o].transform.scale as f64;
+                poisson::dart_throw(&pool[..n], r as f32)
+            })
+            .collect();
+        for &(o, l) in &jobs {
+            let want = (p.candidate_factor as f64 * expected(areas[o], l)).ceil() as u64;
+            pool_sizes[l] += want.clamp(pools[o].len().min(64) as u64, pools[o].len() as u64);
+        }
+        stats.candidates_per_level = pool_sizes;
+        stats.seconds_poisson = t.elapsed().as_secs_f64();
+        drop(pools);
+
+        // Assemble: level-major, then object.
+        let t = Instant::now();
+        progress.stage("kd-trees");
+        let mut nodes = Vec::new();
+        let mut level_start = Vec::with_capacity(m + 1);
+        let mut objects = vec![
+            ObjectLevels {
+                start: vec![0; m],
+                count: vec![0; m],
+                radius: vec![0.0; m],
+            };
+            scene.objects.len()
+        ];
+        for l in 0..m {
+            level_start.push(nodes.len() as u32);
+            for (o, obj) in scene.objects.iter().enumerate() {
+                let set = &sets[o * m + l];
+                objects[o].start[l] = nodes.len() as u32;
+                objects[o].count[l] = set.len() as u32;
+                objects[o].radius[l] = (radius[l] / obj.transform.scale as f64) as f32;
+                nodes.extend(set.iter().map(|c| Node {
+                    pos: c.pos.into(),
+                    level: l as u32,
+                    normal: c.normal.into(),
+                    object: o as u32,
+                }));
+            }
+        }
+        level_start.push(nodes.len() as u32);
+        drop(sets);
+        let mut splits = vec![KdSplit::default(); nodes.len()];
+        {
+            // Split the arrays into the disjoint (object, level) ranges and build in parallel.
+            let mut ranges: Vec<(u32, u32)> = objects
+                .iter()
+                .flat_map(|ol| (0..m).map(move |l| (ol.start[l], ol.count[l])))
+                .collect();
+            ranges.sort();
+            let mut rest_n: &mut [Node] = &mut nodes;
+            let mut rest_s: &mut [KdSplit] = &mut splits;
+            let mut offset = 0u32;
+            let mut parts = Vec::new();
+            for (start, count) in ranges {
+                let (_, a) = rest_n.split_at_mut((start - offset) as usize);
+                let (_, b) = rest_s.split_at_mut((start - offset) as usize);
+                let (pn, an) = a.split_at_mut(count as usize);
+                let (ps, bs) = b.split_at_mut(count as usize);
+                parts.push((pn, ps));
+                rest_n = an;
+                rest_s = bs;
+                offset = start + count;
+            }
+            parts.into_par_iter().for_each(|(n, s)| kdtree::build(n, s));
+        }
+        stats.seconds_kdtree = t.elapsed().as_secs_f64();
+        stats.nodes_per_level = (0..m)
+            .map(|l| level_start[l + 1] - level_start[l])
+            .collect();
+
+        let mut h = Hierarchy {
+            levels: p.levels,
+            kappa: p.kappa,
+            alpha: p.alpha,
+            nodes,
+            splits,
+            level_start,
+            objects,
+            parent_offset: Vec::new(),
+            parents: Vec::new(),
+            child_offset: Vec::new(),
+            children: Vec::new(),
+            stats,
+        };
+        let t = Instant::now();
+        progress.stage("parent relations");
+        h.build_relations();
+        h.stats.seconds_parents = t.elapsed().as_secs_f64();
+        Ok(h)
+    }
+
+    /// Support `h_l` of level `l` of object `o`, object space.
+    #[inline]
+    pub fn support(&self, o: usize, l: usize) -> f32 {
+        self.kappa * self.objects[o].radius[l]
+    }
+
+    /// The nodes and splits of (object, level), and the global index of the first.
+    #[inline]
+    pub fn level(&self, o: usize, l: usize) -> (&[Node], &[KdSplit], usize) {
+        let ol = &self.objects[o];
+        let s = ol.start[l] as usize;
+        let e = s + ol.count[l] as usize;
+        (&self.nodes[s..e], &self.splits[s..e], s)
+    }
+
+    /// Calls `f(global index, w)` for every node of (o, l) with `w_j(p) > 0`.
+    #[inline]
+    pub fn for_each_weight(
+        &self,
+        o: usize,
+        l: usize,
+        p: Vec3,
+        n: Vec3,
+        mut f: impl FnMut(usize, f32),
+    ) {
+        let (nodes, splits, base) = self.level(o, l);
+        let h = self.support(o, l);
+        kdtree::range(nodes, splits, p, h, |i| {
+            let nd = &nodes[i];
+            let w = node_weight(
+                p,
+                n,
+                Vec3::from(nd.pos),
+                Vec3::from(nd.normal),
+                h,
+                self.alpha,
+            );
+            if w > 0.0 {
+                f(base + i, w);
+            }
+        });
+    }
+
+    /// The nearest node of (o, l) on the same side as `n` (n · n_j > 0), if any.
+    pub fn nearest_same_side(&self, o: usize, l: usize, p: Vec3, n: Vec3) -> Option<usize> {
+        let (nodes, splits, base) = self.level(o, l);
+        if nodes.is_empty() {
+            return None;
+        }
+        let mut r = self.support(o, l);
+        for _ in 0..40 {
+            let mut best = None;
+            let mut best_d = f32::INFINITY;
+            kdtree::range(nodes, splits, p, r, |i| {
+                let nd = &nodes[i];
+                let d = (Vec3::from(nd.pos) - p).length_squared();
+                if n.dot(Vec3::from(nd.normal)) > 0.0 && d < best_d {
+                    best_d = d;
+                    best = Some(base + i);
+                }
+            });
+            if best.is_some() {
+                return best;
+            }
+            r *= 2.0;
+        }
+        None
+    }
+
+    fn build_relations(&mut self) {
+        let n = self.nodes.len();
+        let lists: Vec<Vec<Parent>> = (0..n)
+            .into_par_iter()
+            .map(|c| {
+                let nd = &self.nodes[c];
+                if nd.level == 0 {
+                    return Vec::new();
+                }
+                let (o, l) = (nd.object as usize, nd.level as usize - 1);
+                let (p, nrm) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
+                let mut v = Vec::new();
+                let mut sum = 0.0f32;
+                self.for_each_weight(o, l, p, nrm, |j, w| {
+                    v.push(Parent {
+                        node: j as u32,
+                        weight: w,
+                    });
+                    sum += w;
+                });
+                if sum > 0.0 {
+                    for q in &mut v {
+                        q.weight /= sum;
+                    }
+                } else if let Some(j) = self.nearest_same_side(o, l, p, nrm) {
+                    v.push(Parent {
+                        node: j as u32,
+                        weight: 1.0,
+                    });
+                    // Mark the hole: weight exactly 1 with a sum of 0 is recorded below.
+                    v.push(Parent {
+                        node: u32::MAX,
+                        weight: 0.0,
+                    });
+                }
+                v
+            })
+            .collect();
+        let m = self.levels as usize;
+        let mut holes = vec![0u32; m];
+        let mut orphans = vec![0u32; m];
+        self.parent_offset = Vec::with_capacity(n + 1);
+        self.parents.clear();
+        for (c, mut v) in lists.into_iter().enumerate() {
+            let l = self.nodes[c].level as usize;
+            if v.last().is_some_and(|q| q.node == u32::MAX) {
+                v.pop();
+                holes[l] += 1;
+            } else if v.is_empty() && l > 0 {
+                orphans[l] += 1;
+            }
+            self.parent_offset.push(self.parents.len() as u32);
+            self.parents.extend(v);
+        }
+        self.parent_offset.push(self.parents.len() as u32);
+        self.stats.parent_holes_per_level = holes;
+        self.stats.orphans_per_level = orphans;
+
+        // Children: the inverse relation, in ascending order.
+        let mut counts = vec![0u32; n + 1];
+        for q in &self.parents {
+            counts[q.node as usize] += 1;
+        }
+        self.child_offset = Vec::with_capacity(n + 1);
+        let mut acc = 0;
+        for c in &counts[..n] {
+            self.child_offset.push(acc);
+            acc += c;
+        }
+        self.child_offset.push(acc);
+        let mut fill = self.child_offset.clone();
+        self.children = vec![0; acc as usize];
+        for c in 0..n {
+            for q in
+                &self.parents[self.parent_offset[c] as usize..self.parent_offset[c + 1] as usize]
+            {
+                let k = &mut fill[q.node as usize];
+                self.children[*k as usize] = c as u32;
+                *k += 1;
+            }
+        }
+    }
+
+    /// Parents of node `c`.
+    #[inline]
+    pub fn parents_of(&self, c: usize) -> &[Parent] {
+        &self.parents[self.parent_offset[c] as usize..self.parent_offset[c + 1] as usize]
+    }
+
+    /// Children of node `p`.
+    #[inline]
+    pub fn children_of(&self, p: usize) -> &[u32] {
+        &self.children[self.child_offset[p] as usize..self.child_offset[p + 1] as usize]
+    }
+
+    /// The global node range of level `l`.
+    #[inline]
+    pub fn level_range(&self, l: usize) -> std::ops::Range<usize> {
+        self.level_start[l] as usize..self.level_start[l + 1] as usize
+    }
+
+    /// The per-object records shared with the GPU.
+    pub fn object_infos(&self, scene: &Scene) -> Vec<ObjectInfo> {
+        scene
+            .objects
+            .iter()
+            .zip(&self.objects)
+            .map(|(o, ol)| {
+                let mut info = ObjectInfo {
+                    to_object: o.to_object,
+                    to_world: o.to_world,
+                    scale: o.transform.scale,
+                    tri_offset: o.tri_offset,
+                    tri_count: o.tri_count,
+                    bvh_offset: o.bvh_root,
+                    ..Default::default()
+                };
+                for l in 0..(self.levels as usize).min(MAX_LEVELS as usize) {
+                    info.level_start[l] = ol.start[l];
+                    info.level_count[l] = ol.count[l];
+                    info.radius[l] = ol.radius[l];
+                }
+                info
+            })
+            .collect()
+    }
+}

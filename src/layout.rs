@@ -1,0 +1,132 @@
+//! Data that lives on the GPU as it lives on the CPU: `#[repr(C)]` + `Pod`, std430-safe,
+//! mirrored by name in `glsl/include/layout.glsl`. The CPU reference uses these very
+//! structs, so an upload is a `bytemuck::cast_slice`. Sizes and offsets are asserted here
+//! and the GLSL side is checked by `tests/layout.rs` against the generated header.
+
+use bytemuck::{Pod, Zeroable};
+
+use crate::params::MAX_LEVELS;
+
+pub use crate::constants::{LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT, NONE};
+
+/// One triangle in object space. `material` indexes the scene's material table.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Tri {
+    pub v0: [f32; 3],
+    pub material: u32,
+    pub v1: [f32; 3],
+    pub pad0: u32,
+    pub v2: [f32; 3],
+    pub pad1: u32,
+}
+
+/// Texture coordinates of a triangle's three corners (only for textured scenes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TriUv {
+    pub uv: [f32; 6],
+}
+
+/// A basis-function centre of the meshless hierarchy, in its object's space.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Node {
+    pub pos: [f32; 3],
+    pub level: u32,
+    pub normal: [f32; 3],
+    pub object: u32,
+}
+
+/// Inner node of a median-split kd-tree (8 bytes, as in the paper §4.2): the split plane
+/// of the range whose midpoint has this index.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct KdSplit {
+    pub value: f32,
+    pub dim: u32,
+}
+
+/// A parent relation with its pull-down weight `B_p^l(x_c)` (paper §5).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Parent {
+    pub node: u32,
+    pub weight: f32,
+}
+
+/// A diffuse material: `kd` times the texture's texel, if any.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct Material {
+    pub kd: [f32; 3],
+    /// Index into the texture table, or [`NONE`].
+    pub texture: u32,
+}
+
+/// A texture stored as RGBA8 texels (sRGB) at `offset` in the texel array.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct TextureInfo {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub pad: u32,
+}
+
+/// A light in world space (see `ALGORITHM.md` §2).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuLight {
+    /// Position (point, spot); unused for directional.
+    pub position: [f32; 3],
+    pub kind: u32,
+    /// Spot axis or directional direction of travel, unit length.
+    pub direction: [f32; 3],
+    /// Spot cutoff angle in radians.
+    pub cutoff: f32,
+    /// Intensity (W/sr) or perpendicular irradiance (W/m²), RGB.
+    pub power: [f32; 3],
+    /// Spot beam width in radians.
+    pub beam: f32,
+}
+
+/// One scene object: its rigid transform, its geometry and its hierarchy ranges.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct ObjectInfo {
+    /// World → object, rows of a 3×4 affine matrix.
+    pub to_object: [[f32; 4]; 3],
+    /// Object → world, rows of a 3×4 affine matrix.
+    pub to_world: [[f32; 4]; 3],
+    /// Uniform scale (object → world).
+    pub scale: f32,
+    pub tri_offset: u32,
+    pub tri_count: u32,
+    pub bvh_offset: u32,
+    /// First global node index of each level of this object.
+    pub level_start: [u32; MAX_LEVELS as usize],
+    /// Node count of each level of this object.
+    pub level_count: [u32; MAX_LEVELS as usize],
+    /// Poisson radius `r_l` of each level, in object space.
+    pub radius: [f32; MAX_LEVELS as usize],
+}
+
+/// The BVH node type (obvhs' `Bvh2Node`, 48 bytes), uploaded as it is.
+pub type BvhNode = obvhs::bvh2::node::Bvh2Node;
+
+const _: () = {
+    assert!(std::mem::size_of::<Tri>() == 48);
+    assert!(std::mem::size_of::<TriUv>() == 24);
+    assert!(std::mem::size_of::<Node>() == 32);
+    assert!(std::mem::size_of::<KdSplit>() == 8);
+    assert!(std::mem::size_of::<Parent>() == 8);
+    assert!(std::mem::size_of::<Material>() == 16);
+    assert!(std::mem::size_of::<TextureInfo>() == 16);
+    assert!(std::mem::size_of::<GpuLight>() == 48);
+    assert!(std::mem::size_of::<ObjectInfo>() == 112 + 12 * MAX_LEVELS as usize);
+    assert!(std::mem::size_of::<BvhNode>() == 48);
+    assert!(std::mem::offset_of!(ObjectInfo, level_start) == 112);
+    assert!(std::mem::offset_of!(BvhNode, prim_count) == 32);
+    assert!(std::mem::offset_of!(BvhNode, first_index) == 36);
+};

@@ -1,0 +1,26 @@
+//! meshrad: meshless hierarchical radiosity (Zollhöfer & Stamminger, VMV 2011, after
+//! Lehtinen et al. 2008) on the CPU and on Vulkan compute.
+//!
+//! Data flow: [`scene`] loads OBJ/MTL into object-space triangles with one BVH per object;
+//! [`hierarchy`] builds the per-object Poisson-disk levels, kd-trees and parent relations;
+//! [`transport`] runs the bounce loop on a backend (the CPU reference or the GPU);
+//! [`output`] evaluates the solution at pixels and probe points.
+
+pub mod analytic;
+pub mod cli;
+pub mod constants;
+pub mod error;
+pub mod geom;
+pub mod hierarchy;
+pub mod layout;
+pub mod output;
+pub mod params;
+pub mod progress;
+pub mod scene;
+pub mod transport;
+
+pub use error::{Error, Result};
+pub use hierarchy::Hierarchy;
+pub use params::{SolverParams, Variant};
+pub use scene::Scene;
+pub use transport::Solution;

@@ -1,0 +1,111 @@
+//! Probe points: `px py pz nx ny nz` per line (`#` starts a comment) in, CSV out.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::error::{Error, Result};
+use crate::hierarchy::Hierarchy;
+use crate::scene::Scene;
+use crate::transport::Solution;
+
+/// The CSV header of `probe`.
+pub const HEADER: &str =
+    "px,py,pz,nx,ny,nz,direct_r,direct_g,direct_b,indirect_r,indirect_g,indirect_b,total_r,total_g,total_b";
+
+/// A query point with a unit normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probe {
+    pub p: Vec3,
+    pub n: Vec3,
+}
+
+/// Parses a points file; errors name the line.
+pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
+    let mut out = Vec::new();
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let l = raw.split('#').next().unwrap_or("").trim();
+        if l.is_empty() {
+            continue;
+        }
+        let bad = |m: String| Error::Points {
+            path: path.into(),
+            line,
+            message: m,
+        };
+        let vals = l
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .map(|s| {
+                s.parse::<f32>()
+                    .map_err(|_| bad(format!("`{s}` is not a number")))
+            })
+            .collect::<Result<Vec<f32>>>()?;
+        if vals.len() != 6 {
+            return Err(bad(format!(
+                "expected 6 numbers (px py pz nx ny nz), found {}",
+                vals.len()
+            )));
+        }
+        if vals.iter().any(|v| !v.is_finite()) {
+            return Err(bad("values must be finite".into()));
+        }
+        let n = Vec3::new(vals[3], vals[4], vals[5]);
+        if n.length() < 1e-12 {
+            return Err(bad("the normal has zero length".into()));
+        }
+        out.push(Probe {
+            p: Vec3::new(vals[0], vals[1], vals[2]),
+            n: n.normalize(),
+        });
+    }
+    if out.is_empty() {
+        return Err(Error::Points {
+            path: path.into(),
+            line: 0,
+            message: "no points".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// Reads and parses a points file.
+pub fn read(path: &Path) -> Result<Vec<Probe>> {
+    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    parse(path, &text)
+}
+
+/// Direct (exact) and indirect (hierarchy, clamped at zero) irradiance at each probe.
+pub fn evaluate(
+    scene: &Scene,
+    h: &Hierarchy,
+    sol: &Solution,
+    probes: &[Probe],
+    level: u32,
+) -> Vec<(Vec3, Vec3)> {
+    probes
+        .par_iter()
+        .map(|q| {
+            let ind = sol.indirect_at(scene, h, q.p, q.n, level).max(Vec3::ZERO);
+            (scene.direct(q.p, q.n), ind)
+        })
+        .collect()
+}
+
+/// The CSV text for probes and their values.
+pub fn csv(probes: &[Probe], values: &[(Vec3, Vec3)]) -> String {
+    let mut s = String::from(HEADER);
+    s.push('\n');
+    for (q, (d, i)) in probes.iter().zip(values) {
+        let t = *d + *i;
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            q.p.x, q.p.y, q.p.z, q.n.x, q.n.y, q.n.z, d.x, d.y, d.z, i.x, i.y, i.z, t.x, t.y, t.z
+        );
+    }
+    s
+}

@@ -1,0 +1,162 @@
+//! Solver parameters: the `[solver]` table of a scene file, overridable from the CLI.
+//! Names and defaults follow `ALGORITHM.md` (§3, §5) and the paper's Table 1.
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{Error, Result};
+
+pub use crate::constants::MAX_LEVELS;
+
+/// The three variants of the paper's Table 2.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Variant {
+    /// Delta hierarchy (Lehtinen et al.), exact reconstruction over levels 0..=s.
+    Original,
+    /// Absolute hierarchy (paper §5), exact Shepard reconstruction on the sender level.
+    Modified,
+    /// Absolute hierarchy, first kd-tree leaf with normal rejection (paper §5.1).
+    Approx,
+}
+
+impl Variant {
+    /// All variants, in the order of the paper's Table 2.
+    pub const ALL: [Variant; 3] = [Variant::Original, Variant::Modified, Variant::Approx];
+
+    /// The name used in files and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Variant::Original => "original",
+            Variant::Modified => "modified",
+            Variant::Approx => "approx",
+        }
+    }
+
+    /// Whether finer levels store differences (the original hierarchy).
+    pub fn is_delta(self) -> bool {
+        self == Variant::Original
+    }
+}
+
+/// Every parameter of the solver. Unknown keys are an error.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SolverParams {
+    /// Number of hierarchy levels `m`.
+    pub levels: u32,
+    /// Target node count `N_0` of the coarsest level (sets `r_0 = sqrt(0.7 A / N_0)`).
+    pub coarsest: u32,
+    /// Rays per gathering integral `N`.
+    pub rays: u32,
+    /// Bounces `K` of indirect light.
+    pub bounces: u32,
+    /// Hierarchy variant and reconstruction.
+    pub variant: Variant,
+    /// Seed of every random choice (candidates, dart throwing, rotations).
+    pub seed: u32,
+    /// Level `s` reconstructed at hit points.
+    pub sender_level: u32,
+    /// Number `G` of levels that get gathering integrals; finer levels are pulled down.
+    pub gather_levels: u32,
+    /// Level used for outputs (images, probes); default: the finest.
+    pub output_level: Option<u32>,
+    /// Support `h_l = kappa * r_l`.
+    pub kappa: f32,
+    /// Weight of the normal difference in the distance `δ`.
+    pub alpha: f32,
+    /// Oracle: relative threshold `ε_rel`.
+    pub eps_rel: f32,
+    /// Oracle: absolute threshold `ε_abs`, times the mean direct irradiance.
+    pub eps_abs: f32,
+    /// Oracle: noise allowance, in standard errors of the gathered value.
+    pub noise_z: f32,
+    /// Approximate reconstruction: accept a leaf when `n · n_j > approx_cos`.
+    pub approx_cos: f32,
+    /// Stop when a bounce's un-shot energy falls below this fraction of the direct energy.
+    pub stop_threshold: f32,
+    /// Candidate pool per level, as a multiple of the level's expected node count.
+    pub candidate_factor: f32,
+    /// Upper bound on the candidate pool of one object.
+    pub max_candidates: u32,
+    /// Light paths traced to find which surface sides light can reach (§3).
+    pub reach_paths: u32,
+    /// Bounces of those paths.
+    pub reach_bounces: u32,
+    /// GPU: gathering integrals in flight per batch (0: sized from the device).
+    pub batch_integrals: u32,
+}
+
+impl Default for SolverParams {
+    fn default() -> Self {
+        SolverParams {
+            levels: 6,
+            coarsest: 226,
+            rays: 512,
+            bounces: 6,
+            variant: Variant::Approx,
+            seed: 0,
+            sender_level: 4,
+            gather_levels: 3,
+            output_level: None,
+            kappa: 2.0,
+            alpha: 1.0,
+            eps_rel: 0.1,
+            eps_abs: 0.01,
+            noise_z: 2.0,
+            approx_cos: 0.5,
+            stop_threshold: 1e-4,
+            candidate_factor: 8.0,
+            max_candidates: 8_000_000,
+            reach_paths: 1 << 17,
+            reach_bounces: 6,
+            batch_integrals: 0,
+        }
+    }
+}
+
+impl SolverParams {
+    /// The level used for outputs.
+    pub fn output_level(&self) -> u32 {
+        self.output_level.unwrap_or(self.levels - 1)
+    }
+
+    /// Checks every value; the error names the parameter.
+    pub fn validate(&self) -> Result<()> {
+        let range = |name: &str, v: u32, lo: u32, hi: u32| -> Result<()> {
+            if v < lo || v > hi {
+                Err(Error::param(name, format!("{v} is outside {lo}..={hi}")))
+            } else {
+                Ok(())
+            }
+        };
+        let finite = |name: &str, v: f32, lo: f32, hi: f32| -> Result<()> {
+            if !v.is_finite() || v < lo || v > hi {
+                Err(Error::param(name, format!("{v} is outside [{lo}, {hi}]")))
+            } else {
+                Ok(())
+            }
+        };
+        range("levels", self.levels, 1, MAX_LEVELS)?;
+        range("coarsest", self.coarsest, 1, 10_000_000)?;
+        range("rays", self.rays, 1, 1 << 16)?;
+        range("bounces", self.bounces, 0, 10_000)?;
+        range("sender_level", self.sender_level, 0, self.levels - 1)?;
+        range("gather_levels", self.gather_levels, 1, self.levels)?;
+        range("output_level", self.output_level(), 0, self.levels - 1)?;
+        range("max_candidates", self.max_candidates, 1, 200_000_000)?;
+        range("reach_paths", self.reach_paths, 1, 1 << 28)?;
+        range("reach_bounces", self.reach_bounces, 1, 64)?;
+        finite("kappa", self.kappa, 1e-3, 100.0)?;
+        if self.kappa <= 0.0 {
+            return Err(Error::param("kappa", "must be positive"));
+        }
+        finite("alpha", self.alpha, 0.0, 1e3)?;
+        finite("eps_rel", self.eps_rel, 0.0, 1e6)?;
+        finite("eps_abs", self.eps_abs, 0.0, 1e6)?;
+        finite("noise_z", self.noise_z, 0.0, 1e3)?;
+        finite("approx_cos", self.approx_cos, -1.0, 1.0)?;
+        finite("stop_threshold", self.stop_threshold, 0.0, 1.0)?;
+        finite("candidate_factor", self.candidate_factor, 1.0, 1e3)?;
+        Ok(())
+    }
+}

@@ -1,0 +1,101 @@
+//! The scene file (TOML): the schema of issue #2, with unknown keys rejected.
+
+use serde::Deserialize;
+
+use crate::params::SolverParams;
+
+/// A whole scene file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SceneFile {
+    #[serde(default)]
+    pub object: Vec<ObjectEntry>,
+    #[serde(default)]
+    pub light: Vec<LightEntry>,
+    pub camera: Option<CameraEntry>,
+    #[serde(default)]
+    pub solver: SolverParams,
+}
+
+/// `[[object]]`: a mesh with an optional rigid transform.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ObjectEntry {
+    /// OBJ path, relative to the scene file.
+    pub mesh: String,
+    /// Display name (default: the file name).
+    pub name: Option<String>,
+    pub translate: Option<[f32; 3]>,
+    /// Degrees about x, then y, then z.
+    pub rotate: Option<[f32; 3]>,
+    pub scale: Option<f32>,
+    /// Split every triangle into four, this many times.
+    pub tessellate: Option<u32>,
+}
+
+/// `[[light]]`, tagged by `type`.
+#[derive(Debug, Deserialize)]
+#[serde(tag = "type", rename_all = "lowercase")]
+pub enum LightEntry {
+    Point(PointEntry),
+    Spot(SpotEntry),
+    Directional(DirectionalEntry),
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointEntry {
+    pub position: [f32; 3],
+    /// W/sr, RGB.
+    pub intensity: [f32; 3],
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SpotEntry {
+    pub position: [f32; 3],
+    pub target: Option<[f32; 3]>,
+    pub direction: Option<[f32; 3]>,
+    /// W/sr, RGB.
+    pub intensity: [f32; 3],
+    /// Degrees.
+    pub cutoff_angle: f32,
+    /// Degrees.
+    pub beam_width: f32,
+}
+
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DirectionalEntry {
+    /// Direction of travel.
+    pub direction: [f32; 3],
+    /// W/m² perpendicular to the direction, RGB.
+    pub irradiance: [f32; 3],
+}
+
+/// `[camera]`: a pinhole camera.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CameraEntry {
+    pub position: [f32; 3],
+    pub target: [f32; 3],
+    #[serde(default = "default_up")]
+    pub up: [f32; 3],
+    /// Vertical field of view, degrees.
+    #[serde(default = "default_fov")]
+    pub fov: f32,
+    #[serde(default = "default_size")]
+    pub width: u32,
+    #[serde(default = "default_size")]
+    pub height: u32,
+}
+
+fn default_up() -> [f32; 3] {
+    [0.0, 1.0, 0.0]
+}
+fn default_fov() -> f32 {
+    40.0
+}
+fn default_size() -> u32 {
+    256
+}

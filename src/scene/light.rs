@@ -1,0 +1,223 @@
+//! Lights and their direct irradiance (`ALGORITHM.md` §2; units as Mitsuba 3).
+//! GLSL twin: `light_sample` in `glsl/include/surface.glsl`.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::config::LightEntry;
+use crate::error::{Error, Result};
+use crate::layout::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
+
+/// A light's unoccluded contribution at a point and the shadow ray that decides it:
+/// the ray runs from the point along `to_light` for `t` in `(0, tmax)`.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    pub irradiance: Vec3,
+    pub to_light: Vec3,
+    pub tmax: f32,
+}
+
+/// Spot falloff: 1 inside the beam, linear in the angle to 0 at the cutoff.
+#[inline]
+pub fn spot_falloff(theta: f32, beam: f32, cutoff: f32) -> f32 {
+    if theta <= beam {
+        1.0
+    } else if theta >= cutoff {
+        0.0
+    } else {
+        (cutoff - theta) / (cutoff - beam)
+    }
+}
+
+/// Direct irradiance from `l` at `(x, n)` before visibility, with the shadow ray to test.
+/// `o` is the (offset) origin of that shadow ray.
+#[inline]
+pub fn light_sample(l: &GpuLight, x: Vec3, n: Vec3, o: Vec3) -> Option<LightSample> {
+    let power = Vec3::from(l.power);
+    if l.kind == LIGHT_DIRECTIONAL {
+        let w = -Vec3::from(l.direction);
+        let c = n.dot(w);
+        if c <= 0.0 {
+            return None;
+        }
+        return Some(LightSample {
+            irradiance: power * c,
+            to_light: w,
+            tmax: f32::INFINITY,
+        });
+    }
+    let q = Vec3::from(l.position);
+    let v = q - x;
+    let d2 = v.length_squared();
+    if d2 <= 0.0 {
+        return None;
+    }
+    let w = v / d2.sqrt();
+    let c = n.dot(w);
+    if c <= 0.0 {
+        return None;
+    }
+    let mut e = power * (c / d2);
+    if l.kind == LIGHT_SPOT {
+        let cos_t = Vec3::from(l.direction).dot(-w).clamp(-1.0, 1.0);
+        let f = spot_falloff(cos_t.acos(), l.beam, l.cutoff);
+        if f <= 0.0 {
+            return None;
+        }
+        e *= f;
+    }
+    Some(LightSample {
+        irradiance: e,
+        to_light: q - o,
+        tmax: 0.9999,
+    })
+}
+
+/// Total emitted power of a point or spot light (W, RGB): `4πI` or
+/// `2πI ∫_0^cutoff f(θ) sinθ dθ` (`ALGORITHM.md` §7); `None` for directional lights.
+pub fn power(l: &GpuLight) -> Option<Vec3> {
+    let i = Vec3::from(l.power);
+    match l.kind {
+        LIGHT_POINT => Some(i * 4.0 * std::f32::consts::PI),
+        LIGHT_SPOT => {
+            let steps = 100_000;
+            let h = l.cutoff as f64 / steps as f64;
+            let s: f64 = (0..steps)
+                .map(|k| {
+                    let t = (k as f64 + 0.5) * h;
+                    spot_falloff(t as f32, l.beam, l.cutoff) as f64 * t.sin() * h
+                })
+                .sum();
+            Some(i * (2.0 * std::f64::consts::PI * s) as f32)
+        }
+        _ => None,
+    }
+}
+
+fn check3(path: &Path, key: String, v: [f32; 3], nonneg: bool) -> Result<Vec3> {
+    if v.iter().any(|c| !c.is_finite()) || (nonneg && v.iter().any(|&c| c < 0.0)) {
+        return Err(Error::SceneValue {
+            path: path.into(),
+            key,
+            message: format!(
+                "{v:?} must be finite{}",
+                if nonneg { " and non-negative" } else { "" }
+            ),
+        });
+    }
+    Ok(Vec3::from(v))
+}
+
+fn unit(path: &Path, key: String, v: Vec3) -> Result<Vec3> {
+    let l = v.length();
+    if !(l > 1e-20 && l.is_finite()) {
+        return Err(Error::SceneValue {
+            path: path.into(),
+            key,
+            message: "direction has zero length".into(),
+        });
+    }
+    Ok(v / l)
+}
+
+/// Validates a `[[light]]` entry (number `i`, from 0) and converts it.
+pub fn from_entry(e: &LightEntry, i: usize, path: &Path) -> Result<GpuLight> {
+    let k = |f: &str| format!("light[{i}].{f}");
+    let bad = |key: String, message: String| Error::SceneValue {
+        path: path.into(),
+        key,
+        message,
+    };
+    Ok(match e {
+        LightEntry::Point(p) => GpuLight {
+            position: check3(path, k("position"), p.position, false)?.into(),
+            kind: LIGHT_POINT,
+            power: check3(path, k("intensity"), p.intensity, true)?.into(),
+            ..Default::default()
+        },
+        LightEntry::Directional(d) => GpuLight {
+            kind: LIGHT_DIRECTIONAL,
+            direction: unit(
+                path,
+                k("direction"),
+                check3(path, k("direction"), d.direction, false)?,
+            )?
+            .into(),
+            power: check3(path, k("irradiance"), d.irradiance, true)?.into(),
+            ..Default::default()
+        },
+        LightEntry::Spot(s) => {
+            let pos = check3(path, k("position"), s.position, false)?;
+            let dir = match (s.target, s.direction) {
+                (Some(t), None) => check3(path, k("target"), t, false)? - pos,
+                (None, Some(d)) => check3(path, k("direction"), d, false)?,
+                _ => {
+                    return Err(bad(
+                        k("target"),
+                        "a spot light needs exactly one of `target` and `direction`".into(),
+                    ))
+                }
+            };
+            let dir = unit(path, k("direction"), dir)?;
+            if !(s.cutoff_angle > 0.0 && s.cutoff_angle <= 180.0) {
+                return Err(bad(
+                    k("cutoff_angle"),
+                    format!("{} must be in (0, 180] degrees", s.cutoff_angle),
+                ));
+            }
+            if !(s.beam_width >= 0.0 && s.beam_width <= s.cutoff_angle) {
+                return Err(bad(
+                    k("beam_width"),
+                    format!("{} must be in [0, cutoff_angle]", s.beam_width),
+                ));
+            }
+            GpuLight {
+                position: pos.into(),
+                kind: LIGHT_SPOT,
+                direction: dir.into(),
+                cutoff: s.cutoff_angle.to_radians(),
+                power: check3(path, k("intensity"), s.intensity, true)?.into(),
+                beam: s.beam_width.to_radians(),
+            }
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn point_light_over_plane() {
+        let l = GpuLight {
+            position: [0.0, 2.0, 0.0],
+            kind: LIGHT_POINT,
+            power: [3.0, 3.0, 3.0],
+            ..Default::default()
+        };
+        let x = Vec3::new(1.5, 0.0, 0.0);
+        let s = light_sample(&l, x, Vec3::Y, x).unwrap();
+        let h = 2.0f32;
+        let expected = 3.0 * h / (h * h + 1.5 * 1.5f32).powf(1.5);
+        assert!((s.irradiance.x - expected).abs() < 1e-6);
+        assert!(light_sample(&l, x, -Vec3::Y, x).is_none());
+    }
+
+    #[test]
+    fn spot_power_matches_closed_form() {
+        // With beam = cutoff, f = 1 in the cone: Φ = 2πI(1 − cos cutoff).
+        let c = 60f32.to_radians();
+        let l = GpuLight {
+            kind: LIGHT_SPOT,
+            power: [1.0; 3],
+            cutoff: c,
+            beam: c,
+            direction: [0.0, -1.0, 0.0],
+            ..Default::default()
+        };
+        let p = power(&l).unwrap().x;
+        let expected = 2.0 * std::f32::consts::PI * (1.0 - c.cos());
+        assert!((p - expected).abs() < 1e-4 * expected);
+    }
+}

@@ -1,0 +1,520 @@
+//! A loaded scene: objects (triangles in object space, one BVH each, a rigid transform),
+//! materials and textures, lights, camera and solver parameters.
+
+pub mod camera;
+pub mod config;
+pub mod light;
+pub mod obj;
+pub mod reach;
+pub mod source;
+pub mod texture;
+
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+
+pub use camera::Camera;
+pub use source::Source;
+
+use crate::error::{Error, Result};
+use crate::geom::bvh;
+use crate::geom::ray::{offset_origin, tri_normal, tri_point};
+use crate::geom::transform::{xform_point, xform_vector, Affine};
+use crate::geom::{Hit, Ray, Transform};
+use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
+use crate::params::SolverParams;
+
+/// One scene object.
+#[derive(Clone, Debug)]
+pub struct SceneObject {
+    pub name: String,
+    pub transform: Transform,
+    pub to_world: Affine,
+    pub to_object: Affine,
+    /// Global triangle range.
+    pub tri_offset: u32,
+    pub tri_count: u32,
+    /// Root of this object's BVH in [`Scene::bvh`].
+    pub bvh_root: u32,
+    /// Surface area in object space (one side).
+    pub area: f64,
+}
+
+/// What loading reported (also written to stats.json).
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct LoadReport {
+    pub triangles: usize,
+    pub degenerate_dropped: usize,
+    pub faces_without_material: usize,
+    pub emissive_materials_ignored: Vec<String>,
+    pub textures: usize,
+}
+
+/// A scene ready for the solver.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub path: PathBuf,
+    pub objects: Vec<SceneObject>,
+    pub tris: Vec<Tri>,
+    /// Per-triangle uvs; empty when no material is textured.
+    pub uvs: Vec<TriUv>,
+    pub bvh: Vec<BvhNode>,
+    pub materials: Vec<Material>,
+    pub material_names: Vec<String>,
+    pub textures: Vec<TextureInfo>,
+    pub texels: Vec<u32>,
+    pub srgb: [f32; 256],
+    pub lights: Vec<GpuLight>,
+    pub camera: Camera,
+    pub params: SolverParams,
+    /// World-space bounds and the length of their diagonal (the offset scale).
+    pub bounds: (Vec3, Vec3),
+    pub scale: f32,
+    pub report: LoadReport,
+}
+
+/// A surface point reached by a ray.
+#[derive(Clone, Copy, Debug)]
+pub struct Surface {
+    pub object: u32,
+    pub tri: u32,
+    /// Object space, normal facing the ray's origin.
+    pub p_obj: Vec3,
+    pub n_obj: Vec3,
+    /// World space.
+    pub p: Vec3,
+    pub n: Vec3,
+    pub albedo: Vec3,
+}
+
+impl Scene {
+    /// Loads a scene file from disk; `overrides` replace `[solver]` keys.
+    pub fn load(path: &Path, overrides: &[(String, toml::Value)]) -> Result<Scene> {
+        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+        let dir = if dir.as_os_str().is_empty() {
+            PathBuf::from(".")
+        } else {
+            dir
+        };
+        Scene::from_toml(&text, path, Source::Dir(dir), overrides)
+    }
+
+    /// The Cornell box shipped inside the binary.
+    pub fn embedded_cornell(overrides: &[(String, toml::Value)]) -> Result<Scene> {
+        let src = Source::Embedded(source::EMBEDDED_CORNELL);
+        let text = src.read(Path::new("cornell_box.toml"))?;
+        Scene::from_toml(
+            &String::from_utf8_lossy(&text),
+            &src.display(Path::new("cornell_box.toml")),
+            src,
+            overrides,
+        )
+    }
+
+    /// Parses and loads a scene whose files come from `source`.
+    pub fn from_toml(
+        text: &str,
+        path: &Path,
+        source: Source,
+        overrides: &[(String, toml::Value)],
+    ) -> Result<Scene> {
+        let mut file: config::SceneFile = toml::from_str(text).map_err(|e| Error::SceneSyntax {
+            path: path.into(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        file.solver.validate().map_err(|e| Error::SceneValue {
+            path: path.into(),
+            key: "solver".into(),
+            message: e.to_string(),
+        })?;
+        if !overrides.is_empty() {
+            file.solver = apply_overrides(&file.solver, overrides)?;
+        }
+        if file.object.is_empty() {
+            return Err(Error::SceneValue {
+                path: path.into(),
+                key: "object".into(),
+                message: "the scene has no [[object]]: nothing to light".into(),
+            });
+        }
+        if file.light.is_empty() {
+            return Err(Error::SceneValue {
+                path: path.into(),
+                key: "light".into(),
+                message: "the scene has no [[light]]: everything would be black".into(),
+            });
+        }
+        let lights = file
+            .light
+            .iter()
+            .enumerate()
+            .map(|(i, l)| light::from_entry(l, i, path))
+            .collect::<Result<Vec<_>>>()?;
+        let mut b = Builder::default();
+        for (i, entry) in file.object.iter().enumerate() {
+            b.add_object(&source, path, i, entry)?;
+        }
+        b.finish(path, &source, lights, file.camera.as_ref(), file.solver)
+    }
+
+    /// Closest hit of a world-space ray in `(0, tmax)` over all objects.
+    pub fn intersect(&self, ray: &Ray, mut tmax: f32) -> Option<Hit> {
+        let mut best = None;
+        for (i, o) in self.objects.iter().enumerate() {
+            let r = Ray {
+                o: xform_point(&o.to_object, ray.o),
+                d: xform_vector(&o.to_object, ray.d),
+            };
+            if let Some((tri, t, b1, b2)) =
+                bvh::trace(&self.bvh, &self.tris, o.bvh_root, &r, tmax, false)
+            {
+                tmax = t;
+                best = Some(Hit {
+                    object: i as u32,
+                    tri,
+                    t,
+                    b1,
+                    b2,
+                });
+            }
+        }
+        best
+    }
+
+    /// Whether anything blocks a world-space ray in `(0, tmax)`.
+    pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
+        self.objects.iter().any(|o| {
+            let r = Ray {
+                o: xform_point(&o.to_object, ray.o),
+                d: xform_vector(&o.to_object, ray.d),
+            };
+            bvh::trace(&self.bvh, &self.tris, o.bvh_root, &r, tmax, true).is_some()
+        })
+    }
+
+    /// The surface at a hit, its normal turned towards the ray's origin.
+    pub fn surface(&self, hit: &Hit, ray_d: Vec3) -> Surface {
+        let o = &self.objects[hit.object as usize];
+        let tri = &self.tris[hit.tri as usize];
+        let p_obj = tri_point(tri, hit.b1, hit.b2);
+        let mut n_obj = tri_normal(tri);
+        if n_obj.dot(xform_vector(&o.to_object, ray_d)) > 0.0 {
+            n_obj = -n_obj;
+        }
+        Surface {
+            object: hit.object,
+            tri: hit.tri,
+            p_obj,
+            n_obj,
+            p: xform_point(&o.to_world, p_obj),
+            n: xform_vector(&o.to_world, n_obj).normalize(),
+            albedo: self.albedo(hit.tri, hit.b1, hit.b2),
+        }
+    }
+
+    /// Albedo `ρ` at barycentrics `(b1, b2)` of global triangle `tri`.
+    pub fn albedo(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
+        let m = &self.materials[self.tris[tri as usize].material as usize];
+        let kd = Vec3::from(m.kd);
+        if m.texture == NONE {
+            return kd;
+        }
+        let uv = &self.uvs[tri as usize].uv;
+        let b0 = 1.0 - b1 - b2;
+        let u = Vec2::new(
+            uv[0] * b0 + uv[2] * b1 + uv[4] * b2,
+            uv[1] * b0 + uv[3] * b1 + uv[5] * b2,
+        );
+        kd * texture::sample(
+            &self.texels,
+            &self.textures[m.texture as usize],
+            u,
+            &self.srgb,
+        )
+    }
+
+    /// The shadow-ray origin for a world-space surface point.
+    pub fn offset(&self, p: Vec3, n: Vec3) -> Vec3 {
+        offset_origin(p, n, self.scale)
+    }
+
+    /// Exact direct irradiance at a world-space point `(x, n)`: every light, each with a
+    /// shadow ray (`ALGORITHM.md` §2).
+    pub fn direct(&self, x: Vec3, n: Vec3) -> Vec3 {
+        let o = self.offset(x, n);
+        let mut e = Vec3::ZERO;
+        for l in &self.lights {
+            if let Some(s) = light::light_sample(l, x, n, o) {
+                let ray = Ray { o, d: s.to_light };
+                if !self.occluded(&ray, s.tmax) {
+                    e += s.irradiance;
+                }
+            }
+        }
+        e
+    }
+
+    /// Whether any material is textured (texture sampling can be compiled out otherwise).
+    pub fn textured(&self) -> bool {
+        !self.textures.is_empty()
+    }
+
+    /// Total triangle count.
+    pub fn triangle_count(&self) -> usize {
+        self.tris.len()
+    }
+}
+
+/// Replaces `[solver]` keys; each key is checked on its own so that an error names it.
+pub fn apply_overrides(
+    params: &SolverParams,
+    overrides: &[(String, toml::Value)],
+) -> Result<SolverParams> {
+    let mut table =
+        toml::Table::try_from(params).map_err(|e| Error::param("solver", e.to_string()))?;
+    for (k, v) in overrides {
+        let mut one = toml::Table::new();
+        one.insert(k.clone(), v.clone());
+        toml::Value::Table(one)
+            .try_into::<SolverParams>()
+            .map_err(|e| Error::param(k, e.to_string().trim_end().to_string()))?;
+        table.insert(k.clone(), v.clone());
+    }
+    let p: SolverParams = toml::Value::Table(table)
+        .try_into()
+        .map_err(|e| Error::param("solver", e.to_string()))?;
+    p.validate()?;
+    Ok(p)
+}
+
+#[derive(Default)]
+struct Builder {
+    objects: Vec<SceneObject>,
+    tris: Vec<Tri>,
+    uvs: Vec<[f32; 6]>,
+    bvh: Vec<BvhNode>,
+    materials: Vec<obj::MtlData>,
+    report: LoadReport,
+}
+
+impl Builder {
+    fn add_object(
+        &mut self,
+        source: &Source,
+        scene_path: &Path,
+        i: usize,
+        e: &config::ObjectEntry,
+    ) -> Result<()> {
+        let key = |f: &str| format!("object[{i}].{f}");
+        let bad = |k: String, m: String| Error::SceneValue {
+            path: scene_path.into(),
+            key: k,
+            message: m,
+        };
+        let scale = e.scale.unwrap_or(1.0);
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(bad(
+                key("scale"),
+                format!("{scale} must be finite and positive"),
+            ));
+        }
+        let rotate = Vec3::from(e.rotate.unwrap_or([0.0; 3]));
+        let translate = Vec3::from(e.translate.unwrap_or([0.0; 3]));
+        if !rotate.is_finite() || !translate.is_finite() {
+            return Err(bad(
+                key("translate"),
+                "transform values must be finite".into(),
+            ));
+        }
+        let tess = e.tessellate.unwrap_or(0);
+        if tess > 8 {
+            return Err(bad(
+                key("tessellate"),
+                format!("{tess} is above 8 (65536× the triangles)"),
+            ));
+        }
+        let rel = Path::new(&e.mesh);
+        let mut mesh = obj::load(source, rel)?;
+        for _ in 0..tess {
+            let (t, u) = obj::tessellate(&mesh.tris, &mesh.uvs);
+            mesh.tris = t;
+            mesh.uvs = u;
+        }
+        if mesh.tris.is_empty() {
+            return Err(Error::Mesh {
+                path: source.display(rel),
+                line: None,
+                message: "no (non-degenerate) triangles".into(),
+            });
+        }
+        self.report.degenerate_dropped += mesh.degenerate;
+        self.report.faces_without_material += mesh.unassigned;
+        let mat_base = self.materials.len() as u32;
+        for t in &mut mesh.tris {
+            t.material += mat_base;
+        }
+        let has_uv = !mesh.uvs.is_empty();
+        let mut uvs = mesh.uvs;
+        let mut nodes = bvh::build(&mut mesh.tris, &mut uvs, &e.mesh)?;
+        let tri_offset = self.tris.len() as u32;
+        let node_offset = self.bvh.len() as u32;
+        bvh::rebase(&mut nodes, node_offset, tri_offset);
+        let area = mesh
+            .tris
+            .iter()
+            .map(|t| {
+                let v0 = Vec3::from(t.v0).as_dvec3();
+                (Vec3::from(t.v1).as_dvec3() - v0)
+                    .cross(Vec3::from(t.v2).as_dvec3() - v0)
+                    .length()
+                    * 0.5
+            })
+            .sum();
+        let transform = Transform {
+            scale,
+            rotate_deg: rotate,
+            translate,
+        };
+        let name = e.name.clone().unwrap_or_else(|| {
+            rel.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| format!("object{i}"))
+        });
+        self.objects.push(SceneObject {
+            name,
+            transform,
+            to_world: transform.to_world(),
+            to_object: transform.to_object(),
+            tri_offset,
+            tri_count: mesh.tris.len() as u32,
+            bvh_root: node_offset,
+            area,
+        });
+        let n = mesh.tris.len();
+        self.tris.extend(mesh.tris);
+        if has_uv {
+            self.uvs.resize(tri_offset as usize, [0.0; 6]);
+            self.uvs.extend(uvs);
+        }
+        self.uvs.resize(tri_offset as usize + n, [0.0; 6]);
+        self.bvh.extend(nodes);
+        self.materials.extend(mesh.materials);
+        Ok(())
+    }
+
+    fn finish(
+        mut self,
+        path: &Path,
+        source: &Source,
+        lights: Vec<GpuLight>,
+        camera: Option<&config::CameraEntry>,
+        params: SolverParams,
+    ) -> Result<Scene> {
+        let srgb = texture::srgb_table();
+        let mut textures = Vec::new();
+        let mut texels = Vec::new();
+        let mut texture_paths: Vec<PathBuf> = Vec::new();
+        let mut materials = Vec::new();
+        for m in &self.materials {
+            if m.emissive {
+                self.report.emissive_materials_ignored.push(m.name.clone());
+            }
+            let kd = m.kd;
+            let bad_kd = |msg: &str| Error::Mesh {
+                path: m.origin.clone(),
+                line: None,
+                message: format!("material `{}`: Kd {kd:?} {msg}", m.name),
+            };
+            if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                return Err(bad_kd("must be finite and non-negative"));
+            }
+            let texture = match &m.texture {
+                None => {
+                    if kd.iter().any(|&c| c >= 1.0) {
+                        return Err(bad_kd("is an albedo ≥ 1: the surface would create energy"));
+                    }
+                    NONE
+                }
+                Some(t) => {
+                    if kd.iter().any(|&c| c > 1.0) {
+                        return Err(bad_kd("is above 1"));
+                    }
+                    match texture_paths.iter().position(|p| p == t) {
+                        Some(k) => k as u32,
+                        None => {
+                            let (w, h, px) = texture::load(source, t)?;
+                            let info = TextureInfo {
+                                offset: texels.len() as u32,
+                                width: w,
+                                height: h,
+                                pad: 0,
+                            };
+                            texels.extend(px);
+                            let mean = texture::mean(&texels, &info, &srgb) * Vec3::from(kd);
+                            if mean.max_element() >= 1.0 {
+                                return Err(Error::Texture {
+                                    path: source.display(t),
+                                    message: format!(
+                                        "mean albedo {mean} with Kd {kd:?} is ≥ 1: the surface would create energy"
+                                    ),
+                                });
+                            }
+                            textures.push(info);
+                            texture_paths.push(t.clone());
+                            (textures.len() - 1) as u32
+                        }
+                    }
+                }
+            };
+            materials.push(Material { kd, texture });
+        }
+        let uvs = if textures.is_empty() {
+            Vec::new()
+        } else {
+            self.uvs.iter().map(|&uv| TriUv { uv }).collect()
+        };
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for o in &self.objects {
+            for t in &self.tris[o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize] {
+                for v in [t.v0, t.v1, t.v2] {
+                    let w = xform_point(&o.to_world, Vec3::from(v));
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
+            }
+        }
+        let scale = (hi - lo).length();
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(Error::SceneValue {
+                path: path.into(),
+                key: "object".into(),
+                message: "the geometry's bounds are empty or not finite".into(),
+            });
+        }
+        let camera = match camera {
+            Some(c) => Camera::from_entry(c, path)?,
+            None => Camera::framing(lo, hi),
+        };
+        self.report.triangles = self.tris.len();
+        self.report.textures = textures.len();
+        Ok(Scene {
+            path: path.into(),
+            objects: self.objects,
+            tris: self.tris,
+            uvs,
+            bvh: self.bvh,
+            materials,
+            material_names: self.materials.iter().map(|m| m.name.clone()).collect(),
+            textures,
+            texels,
+            srgb,
+            lights,
+            camera,
+            params,
+            bounds: (lo, hi),
+            scale,
+            report: self.report,
+        })
+    }
+}

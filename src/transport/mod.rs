@@ -1,0 +1,213 @@
+//! Light transport (paper §3–§5, `ALGORITHM.md` §5): the bounce loop gathering the
+//! un-shot energy, breadth-first over levels, with the refinement oracle and pull-down.
+//!
+//! The loop is written once, here; a [`Backend`] owns the per-node arrays and runs each
+//! stage where they live (the CPU reference in [`cpu`], Vulkan compute in `crate::gpu`).
+//! Per-ray state never leaves a backend; between stages only counts cross.
+
+pub mod cpu;
+pub mod reconstruct;
+
+use std::time::Instant;
+
+use glam::{Vec3, Vec4};
+use serde::Serialize;
+
+use crate::error::Result;
+use crate::geom::transform::xform_point;
+use crate::geom::transform::xform_vector;
+use crate::hierarchy::Hierarchy;
+use crate::params::Variant;
+use crate::progress::Progress;
+use crate::scene::Scene;
+
+/// Energy of a bounce's un-shot irradiance and of the direct irradiance, summed over the
+/// level-0 nodes (absolute in both hierarchies), mean of the RGB channels.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Energy {
+    pub unshot: f64,
+    pub direct: f64,
+}
+
+/// Per-node results, in the hierarchy's global node order.
+#[derive(Clone, Debug)]
+pub struct NodeValues {
+    /// Exact direct irradiance `E_d` at every node.
+    pub direct: Vec<Vec4>,
+    /// Indirect irradiance: absolute per node (modified), delta coefficients (original).
+    pub indirect: Vec<Vec4>,
+}
+
+/// One stage-by-stage implementation of the transport.
+pub trait Backend {
+    /// Device or "cpu", for stats.
+    fn name(&self) -> String;
+    /// `E_d` at every node by shadow rays.
+    fn direct(&mut self) -> Result<()>;
+    /// Un-shot := `E_d` in the variant's representation; indirect := 0.
+    fn init_unshot(&mut self) -> Result<()>;
+    /// Gathering integrals for the active nodes of `level` (all nodes on levels 0 and 1,
+    /// else those activated by `refine(level − 1, true)`); returns their count.
+    fn gather(&mut self, level: u32) -> Result<u32>;
+    /// Prediction, oracle and new values of `level`; with `activate`, the children of the
+    /// refined nodes become the active set of `level + 1`. Returns the refined count.
+    fn refine(&mut self, level: u32, activate: bool) -> Result<u32>;
+    /// Levels `from..m` without integrals: pull-down (modified) or zero deltas (original).
+    fn fill(&mut self, from: u32) -> Result<()>;
+    /// Indirect += new; un-shot := new.
+    fn end_bounce(&mut self) -> Result<Energy>;
+    /// Reads the per-node results.
+    fn values(&mut self) -> Result<NodeValues>;
+    /// Per-kernel times in seconds (GPU timestamps), if the backend measures them.
+    fn kernel_times(&mut self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
+}
+
+/// Statistics of one bounce.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct BounceStats {
+    pub bounce: u32,
+    pub integrals_per_level: Vec<u32>,
+    pub refined_per_level: Vec<u32>,
+    pub seconds: f64,
+    /// Un-shot energy after this bounce relative to the direct energy.
+    pub unshot_ratio: f64,
+}
+
+/// Statistics of a solve.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct SolveStats {
+    pub backend: String,
+    pub variant: String,
+    pub seconds_direct: f64,
+    pub seconds_init: f64,
+    pub seconds_bounces: f64,
+    pub bounces: Vec<BounceStats>,
+    pub integrals: u64,
+    pub rays_traced: u64,
+    pub stopped_early: Option<String>,
+    pub kernel_seconds: Vec<(String, f64)>,
+}
+
+/// The solved hierarchy values.
+#[derive(Clone, Debug)]
+pub struct Solution {
+    pub variant: Variant,
+    pub values: NodeValues,
+    pub stats: SolveStats,
+}
+
+/// Runs the bounce loop of `ALGORITHM.md` §5 on `backend`.
+pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> Result<Solution> {
+    let p = &scene.params;
+    let mut stats = SolveStats {
+        backend: backend.name(),
+        variant: p.variant.name().into(),
+        ..Default::default()
+    };
+    let t = Instant::now();
+    progress.stage("direct irradiance at nodes");
+    backend.direct()?;
+    stats.seconds_direct = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    backend.init_unshot()?;
+    stats.seconds_init = t.elapsed().as_secs_f64();
+    let g = p.gather_levels;
+    let all = Instant::now();
+    for k in 1..=p.bounces {
+        progress.stage(&format!("bounce {k}/{}", p.bounces));
+        let t = Instant::now();
+        let mut b = BounceStats {
+            bounce: k,
+            ..Default::default()
+        };
+        for l in 0..g {
+            let n = backend.gather(l)?;
+            b.integrals_per_level.push(n);
+            let refined = backend.refine(l, l >= 1 && l + 1 < g)?;
+            b.refined_per_level.push(refined);
+        }
+        backend.fill(g)?;
+        let e = backend.end_bounce()?;
+        b.seconds = t.elapsed().as_secs_f64();
+        b.unshot_ratio = if e.direct > 0.0 {
+            e.unshot / e.direct
+        } else {
+            0.0
+        };
+        let integrals: u64 = b.integrals_per_level.iter().map(|&n| n as u64).sum();
+        stats.integrals += integrals;
+        stats.rays_traced += integrals * p.rays as u64;
+        let ratio = b.unshot_ratio;
+        stats.bounces.push(b);
+        if ratio < p.stop_threshold as f64 && k < p.bounces {
+            stats.stopped_early = Some(format!(
+                "after bounce {k}: un-shot energy {ratio:.3e} of the direct energy is below stop_threshold {}",
+                p.stop_threshold
+            ));
+            break;
+        }
+    }
+    stats.seconds_bounces = all.elapsed().as_secs_f64();
+    let values = backend.values()?;
+    stats.kernel_seconds = backend.kernel_times();
+    Ok(Solution {
+        variant: p.variant,
+        values,
+        stats,
+    })
+}
+
+impl Solution {
+    /// Indirect irradiance at an object-space surface point of object `o`.
+    pub fn indirect_on(
+        &self,
+        h: &Hierarchy,
+        o: usize,
+        p_obj: Vec3,
+        n_obj: Vec3,
+        level: u32,
+    ) -> Vec3 {
+        reconstruct::output(
+            h,
+            self.variant.is_delta(),
+            o,
+            level as usize,
+            p_obj,
+            n_obj,
+            &self.values.indirect,
+        )
+    }
+
+    /// Indirect irradiance at a world-space point `(x, n)` near some surface: the object
+    /// with the most basis weight there on the finest level that covers it answers.
+    pub fn indirect_at(&self, scene: &Scene, h: &Hierarchy, x: Vec3, n: Vec3, level: u32) -> Vec3 {
+        let local: Vec<(Vec3, Vec3)> = scene
+            .objects
+            .iter()
+            .map(|o| {
+                let p = xform_point(&o.to_object, x);
+                (p, xform_vector(&o.to_object, n).normalize_or_zero())
+            })
+            .collect();
+        for l in (0..=level as usize).rev() {
+            let best = local
+                .iter()
+                .enumerate()
+                .map(|(o, &(p, nn))| {
+                    (
+                        o,
+                        reconstruct::shepard_sums(h, o, l, p, nn, &self.values.indirect).1,
+                    )
+                })
+                .filter(|&(_, w)| w > 0.0)
+                .max_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((o, _)) = best {
+                let (p, nn) = local[o];
+                return self.indirect_on(h, o, p, nn, level);
+            }
+        }
+        Vec3::ZERO
+    }
+}

@@ -1,0 +1,124 @@
+//! Reconstruction of a field stored on the hierarchy at a surface point (`ALGORITHM.md`
+//! §5): exact Shepard on one level (modified), the sum of deltas over levels (original),
+//! and the first kd-tree leaf with normal rejection (approximate, paper §5.1).
+//! GLSL twins in `glsl/include/hierarchy.glsl`.
+
+use glam::{Vec3, Vec4, Vec4Swizzles};
+
+use crate::hierarchy::{kdtree, Hierarchy};
+use crate::params::Variant;
+
+/// `Σ_j w_j(p) v_j` and `Σ_j w_j(p)` over level `l` of object `o`.
+#[inline]
+pub fn shepard_sums(
+    h: &Hierarchy,
+    o: usize,
+    l: usize,
+    p: Vec3,
+    n: Vec3,
+    values: &[Vec4],
+) -> (Vec3, f32) {
+    let mut sum = Vec3::ZERO;
+    let mut wsum = 0.0;
+    h.for_each_weight(o, l, p, n, |j, w| {
+        sum += values[j].xyz() * w;
+        wsum += w;
+    });
+    (sum, wsum)
+}
+
+/// Exact Shepard value on level `l`, falling back to the nearest coarser level that covers
+/// `p` (a hole); `None` when no level does.
+#[inline]
+pub fn exact(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4]) -> Option<Vec3> {
+    (0..=l).rev().find_map(|k| {
+        let (s, w) = shepard_sums(h, o, k, p, n, values);
+        (w > 0.0).then(|| s / w)
+    })
+}
+
+/// The original hierarchy: `F_l(p) = Σ_{k ≤ l} Σ_j α_j^k B_j^k(p)`; a level with a hole
+/// at `p` adds nothing.
+#[inline]
+pub fn delta_sum(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4]) -> Vec3 {
+    (0..=l).fold(Vec3::ZERO, |acc, k| {
+        let (s, w) = shepard_sums(h, o, k, p, n, values);
+        if w > 0.0 {
+            acc + s / w
+        } else {
+            acc
+        }
+    })
+}
+
+/// Approximate: the value of the first kd-tree leaf near `p` with an agreeing normal,
+/// falling back to coarser levels.
+#[inline]
+pub fn approx(
+    h: &Hierarchy,
+    o: usize,
+    l: usize,
+    p: Vec3,
+    n: Vec3,
+    values: &[Vec4],
+    cos_min: f32,
+) -> Option<Vec3> {
+    (0..=l).rev().find_map(|k| {
+        let (nodes, splits, base) = h.level(o, k);
+        kdtree::first_leaf(nodes, splits, p, n, h.support(o, k), cos_min)
+            .map(|i| values[base + i].xyz())
+    })
+}
+
+/// How the transport reads un-shot energy at hit points: the variant's reconstruction
+/// on sender level `level`.
+#[derive(Clone, Copy, Debug)]
+pub struct Sender {
+    pub variant: Variant,
+    pub level: usize,
+    pub cos_min: f32,
+}
+
+impl Sender {
+    /// From the solver parameters.
+    pub fn of(p: &crate::params::SolverParams) -> Self {
+        Sender {
+            variant: p.variant,
+            level: p.sender_level as usize,
+            cos_min: p.approx_cos,
+        }
+    }
+
+    /// The value at an object-space point of object `o`.
+    #[inline]
+    pub fn read(&self, h: &Hierarchy, o: usize, p: Vec3, n: Vec3, values: &[Vec4]) -> Vec3 {
+        match self.variant {
+            Variant::Original => delta_sum(h, o, self.level, p, n, values),
+            Variant::Modified => exact(h, o, self.level, p, n, values).unwrap_or(Vec3::ZERO),
+            Variant::Approx => {
+                approx(h, o, self.level, p, n, values, self.cos_min).unwrap_or(Vec3::ZERO)
+            }
+        }
+    }
+}
+
+/// The value of a solved field at an object-space surface point, read from level `l`
+/// with exact reconstruction (outputs: images and probes). The delta hierarchy can ring
+/// below zero next to a discontinuity (e.g. a surface in a thin unlit gap): the raw value
+/// is returned and the caller clamps and counts.
+#[inline]
+pub fn output(
+    h: &Hierarchy,
+    delta: bool,
+    o: usize,
+    l: usize,
+    p: Vec3,
+    n: Vec3,
+    values: &[Vec4],
+) -> Vec3 {
+    if delta {
+        delta_sum(h, o, l, p, n, values)
+    } else {
+        exact(h, o, l, p, n, values).unwrap_or(Vec3::ZERO)
+    }
+}

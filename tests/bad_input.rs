@@ -1,0 +1,237 @@
+//! Bad input gets a clear error that names the input, a non-zero exit, and no panic.
+
+mod common;
+
+use std::path::Path;
+use std::process::Command;
+
+const OBJ: &str = "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n";
+const MTL: &str = "newmtl a\nKd 0.5 0.5 0.5\n";
+const LIGHT: &str =
+    "[[light]]\ntype = \"point\"\nposition = [0.2, 0.2, 0.2]\nintensity = [1.0, 1.0, 1.0]\n";
+const FAST: &str = "[solver]\nlevels = 2\ncoarsest = 20\nrays = 16\nbounces = 1\nsender_level = 1\ngather_levels = 1\n";
+
+struct Case<'a> {
+    toml: String,
+    obj: &'a str,
+    mtl: &'a str,
+    extra: &'a [&'a str],
+}
+
+fn scene(toml: &str) -> Case<'static> {
+    Case {
+        toml: toml.to_string(),
+        obj: OBJ,
+        mtl: MTL,
+        extra: &[],
+    }
+}
+
+fn default_toml() -> String {
+    format!("[[object]]\nmesh = \"m.obj\"\n\n{LIGHT}\n{FAST}")
+}
+
+/// Runs `meshrad solve` on the case; returns (success, stderr).
+fn run(c: &Case) -> (bool, String) {
+    let dir = common::tmpdir();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), &c.toml).unwrap();
+    std::fs::write(d.join("m.obj"), c.obj).unwrap();
+    std::fs::write(d.join("m.mtl"), c.mtl).unwrap();
+    let mut args = vec!["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"];
+    args.extend_from_slice(c.extra);
+    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args(&args)
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr).into_owned();
+    assert!(!err.contains("panicked"), "panic: {err}");
+    (o.status.success(), err)
+}
+
+fn fails_with(c: Case, needles: &[&str]) {
+    let (ok, err) = run(&c);
+    assert!(!ok, "should fail: {}", c.toml);
+    for n in needles {
+        assert!(err.contains(n), "error should mention `{n}`:\n{err}");
+    }
+}
+
+#[test]
+fn a_good_case_passes() {
+    let (ok, err) = run(&scene(&default_toml()));
+    assert!(ok, "{err}");
+}
+
+#[test]
+fn missing_scene_file() {
+    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args(["solve", "/nonexistent/scene.toml", "-q"])
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("/nonexistent/scene.toml") && !err.contains("panicked"),
+        "{err}"
+    );
+}
+
+#[test]
+fn malformed_toml_names_the_line() {
+    fails_with(scene("[[object]]\nmesh = \"m.obj\n"), &["s.toml", "line 2"]);
+}
+
+#[test]
+fn unknown_keys_are_errors() {
+    let t = default_toml().replace("intensity", "intensty");
+    fails_with(scene(&t), &["s.toml", "intensty"]);
+    let t = format!("{}\nsender_levle = 1\n", default_toml());
+    fails_with(scene(&t), &["sender_levle"]);
+    let t = default_toml().replace("[[object]]\nmesh", "[[object]]\nscael = 2.0\nmesh");
+    fails_with(scene(&t), &["scael"]);
+    let mut c = scene(&default_toml());
+    c.extra = &["--set", "bogus_key=1"];
+    fails_with(c, &["bogus_key"]);
+}
+
+#[test]
+fn impossible_parameters() {
+    fails_with(
+        scene(&default_toml().replace("rays = 16", "rays = -5")),
+        &["rays"],
+    );
+    fails_with(
+        scene(&default_toml().replace("levels = 2", "levels = 0")),
+        &["levels"],
+    );
+    fails_with(
+        scene(&default_toml().replace("sender_level = 1", "sender_level = 3")),
+        &["sender_level"],
+    );
+    let mut c = scene(&default_toml());
+    c.extra = &["--set", "kappa=nan"];
+    fails_with(c, &["kappa"]);
+    let t = default_toml().replace("[[object]]\nmesh", "[[object]]\nscale = -1.0\nmesh");
+    fails_with(scene(&t), &["object[0].scale"]);
+}
+
+#[test]
+fn no_light_or_no_geometry() {
+    fails_with(
+        scene(&format!("[[object]]\nmesh = \"m.obj\"\n{FAST}")),
+        &["s.toml", "light"],
+    );
+    fails_with(scene(&format!("{LIGHT}\n{FAST}")), &["s.toml", "object"]);
+}
+
+#[test]
+fn bad_lights() {
+    let t = default_toml().replace(
+        LIGHT,
+        "[[light]]\ntype = \"directional\"\ndirection = [0.0, 0.0, 0.0]\nirradiance = [1.0, 1.0, 1.0]\n",
+    );
+    fails_with(scene(&t), &["light[0].direction"]);
+    let t = default_toml().replace(
+        LIGHT,
+        "[[light]]\ntype = \"spot\"\nposition = [0.2, 0.2, 0.2]\ntarget = [0.0, 0.0, 0.0]\n\
+         direction = [0.0, -1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\ncutoff_angle = 30.0\nbeam_width = 20.0\n",
+    );
+    fails_with(scene(&t), &["light[0]", "exactly one"]);
+    let t = default_toml().replace("intensity = [1.0, 1.0, 1.0]", "intensity = [1.0, nan, 1.0]");
+    fails_with(scene(&t), &["light[0].intensity"]);
+    let t = default_toml().replace("type = \"point\"", "type = \"area\"");
+    fails_with(scene(&t), &["area"]);
+}
+
+#[test]
+fn missing_mesh_material_and_texture_files() {
+    fails_with(
+        scene(&default_toml().replace("m.obj", "nope.obj")),
+        &["nope.obj"],
+    );
+    let mut c = scene(&default_toml());
+    c.obj = "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    fails_with(c, &["m.obj", "missing.mtl"]);
+    let mut c = scene(&default_toml());
+    c.mtl = "newmtl a\nKd 0.5 0.5 0.5\nmap_Kd tex/none.png\n";
+    fails_with(c, &["none.png"]);
+}
+
+#[test]
+fn malformed_obj_names_the_line() {
+    let mut c = scene(&default_toml());
+    c.obj = "mtllib m.mtl\nv 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n";
+    fails_with(c, &["m.obj:3", "not finite"]);
+    let mut c = scene(&default_toml());
+    c.obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 inf\nf 1 2 3\n";
+    fails_with(c, &["m.obj:4"]);
+    let mut c = scene(&default_toml());
+    c.obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 7\n";
+    fails_with(c, &["m.obj:5", "vertex 7"]);
+    let mut c = scene(&default_toml());
+    c.obj = "mtllib m.mtl\nv 0 0 0\nv 1 zero 0\n";
+    fails_with(c, &["m.obj:3", "zero"]);
+}
+
+#[test]
+fn degenerate_triangles_are_dropped_and_counted() {
+    let mut c = scene(&default_toml());
+    let obj = format!("{OBJ}v 2 2 2\nf 1 1 2\nf 1 2 5\n");
+    c.obj = &obj;
+    // `f 1 2 5`: (0,0,0), (1,0,0), (2,2,2) is fine; `f 1 1 2` is degenerate.
+    let (ok, err) = run(&c);
+    assert!(ok, "{err}");
+    assert!(err.contains("dropped 1 degenerate triangle"), "{err}");
+    let mut c = scene(&default_toml());
+    c.obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n";
+    fails_with(c, &["m.obj", "no (non-degenerate) triangles"]);
+}
+
+#[test]
+fn albedo_of_one_or_more_is_an_error() {
+    let mut c = scene(&default_toml());
+    c.mtl = "newmtl a\nKd 1.0 0.5 0.5\n";
+    fails_with(c, &["m.obj", "material `a`", "albedo"]);
+    let mut c = scene(&default_toml());
+    c.mtl = "newmtl a\nKd 0.5 -0.5 0.5\n";
+    fails_with(c, &["material `a`"]);
+}
+
+#[test]
+fn bad_points_file_names_the_line() {
+    let dir = common::tmpdir();
+    let d = dir.path();
+    std::fs::write(d.join("s.toml"), default_toml()).unwrap();
+    std::fs::write(d.join("m.obj"), OBJ).unwrap();
+    std::fs::write(d.join("m.mtl"), MTL).unwrap();
+    for (text, needle) in [
+        ("0 0 0 0 1 0\n0 0 0 0 1\n", "p.txt:2"),
+        ("# c\n0 0 0 0 0 0\n", "p.txt:2"),
+        ("0 0 x 0 1 0\n", "p.txt:1"),
+        ("# nothing\n", "no points"),
+    ] {
+        std::fs::write(d.join("p.txt"), text).unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+            .args(["probe", "s.toml", "--points", "p.txt", "-q"])
+            .current_dir(d)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(needle) && !err.contains("panicked"),
+            "{text:?}: {err}"
+        );
+    }
+    let _ = Path::new("");
+}
+
+#[test]
+fn unusable_camera() {
+    let t = format!(
+        "{}\n[camera]\nposition = [0.0, 0.0, 5.0]\ntarget = [0.0, 0.0, 0.0]\nup = [0.0, 0.0, 1.0]\n",
+        default_toml()
+    );
+    fails_with(scene(&t), &["camera.up"]);
+}

@@ -1,0 +1,186 @@
+//! The command line as a user runs it: the default run on the embedded Cornell box,
+//! `solve` on a scene file, `probe`, and the PLY export.
+
+mod common;
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn meshrad(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("run meshrad")
+}
+
+fn ok(o: &Output) {
+    assert!(
+        o.status.success(),
+        "meshrad failed:\nstdout: {}\nstderr: {}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+fn check_images(dir: &Path, w: u32, h: u32) {
+    for stem in ["direct", "indirect", "total"] {
+        let png = image::open(dir.join(format!("{stem}.png"))).expect("png decodes");
+        assert_eq!((png.width(), png.height()), (w, h));
+        let exr = exr::prelude::read_first_rgba_layer_from_file(
+            dir.join(format!("{stem}.exr")),
+            |res, _| vec![0.0f32; res.width() * res.height()],
+            move |px: &mut Vec<f32>, pos, (r, _g, _b, _a): (f32, f32, f32, f32)| {
+                px[pos.y() * w as usize + pos.x()] = r
+            },
+        )
+        .expect("exr decodes");
+        let px = exr.layer_data.channel_data.pixels;
+        assert!(px.iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(px.iter().any(|v| *v > 0.0), "{stem} is black");
+    }
+}
+
+#[test]
+fn default_run_solves_the_embedded_cornell_box() {
+    let dir = common::tmpdir();
+    let o = meshrad(&["-q"], dir.path());
+    // `-q` is not a top-level flag: the default run takes no arguments at all.
+    assert!(!o.status.success());
+    let o = meshrad(&[], dir.path());
+    ok(&o);
+    let out = dir.path().join("out");
+    check_images(&out, 256, 256);
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["scene"]["triangles"], 36);
+    assert_eq!(stats["variant"], "approx");
+    assert_eq!(stats["backend"], "cpu");
+    let levels = stats["hierarchy"]["nodes_per_level"].as_array().unwrap();
+    assert_eq!(levels.len(), 6);
+    let bounces = stats["solve"]["bounces"].as_array().unwrap();
+    assert_eq!(bounces.len(), 6);
+    assert!(stats["solve"]["rays_traced"].as_u64().unwrap() > 1_000_000);
+}
+
+#[test]
+fn solve_a_scene_file_with_flags_and_export_nodes() {
+    let dir = common::tmpdir();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let out = dir.path().join("o");
+    let ply = dir.path().join("nodes.ply");
+    let o = meshrad(
+        &[
+            "solve",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--variant",
+            "original",
+            "--bounces",
+            "2",
+            "--rays",
+            "64",
+            "--seed",
+            "7",
+            "--set",
+            "levels=4",
+            "--set",
+            "sender_level=3",
+            "--export-nodes",
+            ply.to_str().unwrap(),
+            "--stats",
+            "-q",
+        ],
+        dir.path(),
+    );
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("nodes per level") && err.contains("bounce 2"),
+        "{err}"
+    );
+    check_images(&out, 256, 256);
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["variant"], "original");
+    assert_eq!(stats["seed"], 7);
+    assert_eq!(stats["params"]["rays"], 64);
+    let nodes: u64 = stats["hierarchy"]["nodes_per_level"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_u64().unwrap())
+        .sum();
+    let bytes = std::fs::read(&ply).unwrap();
+    let text = String::from_utf8_lossy(&bytes[..600]);
+    assert!(text.starts_with("ply\nformat binary_little_endian 1.0"));
+    assert!(text.contains(&format!("element vertex {nodes}\n")));
+    let header_len = text.find("end_header\n").unwrap() + "end_header\n".len();
+    assert_eq!(bytes.len() - header_len, nodes as usize * 56);
+}
+
+#[test]
+fn probe_prints_the_csv() {
+    let dir = common::tmpdir();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let pts = dir.path().join("p.txt");
+    std::fs::write(
+        &pts,
+        "# floor centre, facing up\n278 0 279.6 0 1 0\n\n100 0 100  0 1 0 # near the green wall\n278 548.8 279.6 0 -1 0\n",
+    )
+    .unwrap();
+    let csv = dir.path().join("p.csv");
+    let args = [
+        "probe",
+        scene.to_str().unwrap(),
+        "--points",
+        pts.to_str().unwrap(),
+        "--out",
+        csv.to_str().unwrap(),
+        "--rays",
+        "64",
+        "--set",
+        "levels=4",
+        "--set",
+        "sender_level=3",
+        "-q",
+    ];
+    ok(&meshrad(&args, dir.path()));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), meshrad::output::probe::HEADER);
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 3);
+    for r in &rows {
+        assert_eq!(r.len(), 15);
+        for c in 0..3 {
+            assert!((r[12 + c] - r[6 + c] - r[9 + c]).abs() < 1e-4 * r[12 + c].abs().max(1.0));
+        }
+    }
+    // The floor centre is directly under the spot: E_d = I / h².
+    let want = 300000.0 / (548.0f64 * 548.0);
+    assert!(
+        (rows[0][6] - want).abs() < 1e-4 * want,
+        "{} vs {want}",
+        rows[0][6]
+    );
+    // The ceiling sees no direct light but gets indirect light.
+    assert_eq!(rows[2][6], 0.0);
+    assert!(rows[2][9] > 0.0);
+    // Without --out the CSV goes to stdout.
+    let o = meshrad(
+        &args[..args.len() - 9]
+            .iter()
+            .chain(&["--rays", "16", "-q"])
+            .copied()
+            .collect::<Vec<_>>(),
+        dir.path(),
+    );
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).starts_with("px,py,pz"));
+}

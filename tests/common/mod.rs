@@ -1,0 +1,43 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+
+use meshrad::cli::{run_solver, BackendChoice};
+use meshrad::progress::Progress;
+use meshrad::{Hierarchy, Scene, Solution};
+
+/// A fresh temporary directory that lives as long as the returned guard.
+pub fn tmpdir() -> tempfile::TempDir {
+    tempfile::tempdir().expect("temporary directory")
+}
+
+/// Loads a scene file with `[solver]` overrides given as `key=value` TOML snippets.
+pub fn load(path: &Path, overrides: &[(&str, &str)]) -> Scene {
+    let o: Vec<(String, toml::Value)> = overrides
+        .iter()
+        .map(|(k, v)| {
+            let t: toml::Table = toml::from_str(&format!("v = {v}")).expect("override value");
+            (k.to_string(), t["v"].clone())
+        })
+        .collect();
+    Scene::load(path, &o).unwrap_or_else(|e| panic!("loading {}: {e}", path.display()))
+}
+
+/// Hierarchy and CPU solution of a scene.
+pub fn solve_cpu(scene: &Scene) -> (Hierarchy, Solution) {
+    let (h, s, _, _) = run_solver(scene, BackendChoice::Cpu, &Progress::hidden()).expect("solve");
+    (h, s)
+}
+
+/// Path of a file under ../shared/scenes.
+pub fn shared_scene(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/scenes")
+        .join(rel)
+}
+
+/// Relative error.
+pub fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs().max(1e-30)
+}

@@ -1,0 +1,161 @@
+//! Invariants of the meshless hierarchy on the Cornell box: Poisson distance on every
+//! level, coverage without holes, partition of unity, parent weights summing to one,
+//! Shepard reproducing constants, and determinism.
+
+mod common;
+
+use glam::{Vec3, Vec4};
+use meshrad::hierarchy::{poisson, Hierarchy};
+use meshrad::progress::Progress;
+use meshrad::scene::reach;
+use meshrad::transport::reconstruct;
+use meshrad::Scene;
+
+fn cornell(levels: u32) -> Scene {
+    let mut s = Scene::embedded_cornell(&[]).unwrap();
+    s.params.levels = levels;
+    s.params.sender_level = levels - 1;
+    s.params.gather_levels = levels.min(3);
+    s
+}
+
+/// Random points on the sides light reaches (the same definition the build uses).
+fn surface_points(scene: &Scene, n: usize) -> Vec<(Vec3, Vec3)> {
+    let p = &scene.params;
+    let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
+    poisson::candidates(&scene.tris, &sides, n, 12345)
+        .into_iter()
+        .map(|c| (c.pos, c.normal))
+        .collect()
+}
+
+#[test]
+fn poisson_distance_on_every_level() {
+    let scene = cornell(5);
+    let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    for l in 0..5 {
+        let (nodes, _, _) = h.level(0, l);
+        let r = h.objects[0].radius[l];
+        let mut g = poisson::Grid::new(r);
+        for nd in nodes {
+            let c = poisson::Candidate {
+                pos: Vec3::from(nd.pos),
+                normal: Vec3::from(nd.normal),
+            };
+            assert!(
+                !g.conflicts(&c),
+                "level {l}: two same-side nodes closer than r = {r}"
+            );
+            g.insert(c);
+        }
+        println!("level {l}: {} nodes, r = {r}", nodes.len());
+    }
+    // Roughly 4× per level (radius halves).
+    let n = &h.stats.nodes_per_level;
+    for l in 1..5 {
+        let ratio = n[l] as f64 / n[l - 1] as f64;
+        assert!((3.0..4.6).contains(&ratio), "{n:?}");
+    }
+    assert!(
+        (150..320).contains(&n[0]),
+        "coarsest {n:?} for a target of 226"
+    );
+}
+
+#[test]
+fn dart_throwing_is_maximal() {
+    let scene = cornell(3);
+    let sides = vec![true; scene.tris.len() * 2];
+    let pool = poisson::candidates(&scene.tris, &sides, 20_000, 5);
+    let r = 20.0;
+    let set = poisson::dart_throw(&pool, r);
+    let mut g = poisson::Grid::new(r);
+    for c in &set {
+        g.insert(*c);
+    }
+    for c in &pool {
+        assert!(
+            g.conflicts(c) || set.contains(c),
+            "candidate not covered: not maximal"
+        );
+    }
+}
+
+#[test]
+fn partition_of_unity_and_constants() {
+    let scene = cornell(5);
+    let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    let constant = vec![Vec4::new(2.5, 2.5, 2.5, 0.0); h.nodes.len()];
+    let pts = surface_points(&scene, 2000);
+    for l in 0..5 {
+        let mut holes = 0;
+        for &(p, n) in &pts {
+            let mut sum_b = 0.0f64;
+            let mut ws = Vec::new();
+            h.for_each_weight(0, l, p, n, |_, w| ws.push(w));
+            let total: f32 = ws.iter().sum();
+            if total == 0.0 {
+                holes += 1;
+                continue;
+            }
+            for w in ws {
+                sum_b += (w / total) as f64;
+            }
+            assert!((sum_b - 1.0).abs() < 1e-5, "ΣB = {sum_b}");
+            let v = reconstruct::exact(&h, 0, l, p, n, &constant).unwrap();
+            assert!((v.x - 2.5).abs() < 1e-5, "constant reproduced as {v}");
+        }
+        assert_eq!(holes, 0, "level {l} has holes on the lit walls");
+    }
+}
+
+#[test]
+fn parent_weights_sum_to_one() {
+    let scene = cornell(5);
+    let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    let mut checked = 0;
+    for c in h.level_start[1] as usize..h.nodes.len() {
+        let ps = h.parents_of(c);
+        assert!(!ps.is_empty(), "node {c} has no parent");
+        let s: f32 = ps.iter().map(|p| p.weight).sum();
+        assert!(
+            (s - 1.0).abs() < 1e-5,
+            "node {c}: parent weights sum to {s}"
+        );
+        for p in ps {
+            assert_eq!(h.nodes[p.node as usize].level + 1, h.nodes[c].level);
+            assert!(h.children_of(p.node as usize).contains(&(c as u32)));
+        }
+        checked += 1;
+    }
+    assert!(checked > 10_000);
+    assert_eq!(h.stats.orphans_per_level.iter().sum::<u32>(), 0);
+}
+
+#[test]
+fn same_seed_same_everything() {
+    let a = {
+        let s = cornell(4);
+        let (h, sol) = common::solve_cpu(&s);
+        (h.nodes, sol.values.direct, sol.values.indirect)
+    };
+    let b = {
+        let s = cornell(4);
+        let (h, sol) = common::solve_cpu(&s);
+        (h.nodes, sol.values.direct, sol.values.indirect)
+    };
+    assert!(
+        a.0 == b.0,
+        "nodes differ between two runs with the same seed"
+    );
+    assert!(
+        a.1 == b.1 && a.2 == b.2,
+        "values differ between two runs with the same seed"
+    );
+    let c = {
+        let mut s = cornell(4);
+        s.params.seed = 1;
+        Hierarchy::build(&s, &Progress::hidden()).unwrap().nodes
+    };
+    assert!(a.0 != c, "another seed gives other nodes");
+}

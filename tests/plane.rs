@@ -1,0 +1,58 @@
+//! Point light over a plane (`ALGORITHM.md` §7): `E_d = I h / (h² + d²)^{3/2}` at probes and
+//! at every node, and no indirect light (nothing reflects back).
+
+mod common;
+
+use glam::{Vec3, Vec4Swizzles};
+use meshrad::analytic::{plane, plane_expected};
+use meshrad::output::probe;
+use meshrad::transport::cpu::node_world;
+
+#[test]
+fn point_light_over_plane() {
+    let dir = common::tmpdir();
+    let (s, h, i) = (10.0, 2.0, 5.0);
+    let path = plane(
+        dir.path(),
+        s,
+        h,
+        i,
+        2,
+        "levels = 3\ncoarsest = 50\nrays = 64\nbounces = 2\nsender_level = 2\ngather_levels = 2\n",
+    )
+    .unwrap();
+    let scene = common::load(&path, &[]);
+    let (hier, sol) = common::solve_cpu(&scene);
+    let mut worst = 0.0f64;
+    for j in 0..hier.nodes.len() {
+        let (x, n) = node_world(&scene, &hier, j);
+        let e = sol.values.direct[j].x as f64;
+        if n.y > 0.0 {
+            let d = (x.x as f64).hypot(x.z as f64);
+            worst = worst.max(common::rel(e, plane_expected(h, i, d)));
+        } else {
+            assert_eq!(e, 0.0, "the back of the plane is dark");
+        }
+        assert_eq!(
+            sol.values.indirect[j].xyz(),
+            Vec3::ZERO,
+            "a lone plane has no indirect light"
+        );
+    }
+    assert!(worst < 1e-5, "node direct irradiance off by {worst}");
+    let probes: Vec<probe::Probe> = (0..40)
+        .map(|k| probe::Probe {
+            p: Vec3::new(k as f32 * 0.2 - 3.9, 0.0, (k % 7) as f32 - 3.0),
+            n: Vec3::Y,
+        })
+        .collect();
+    let vals = probe::evaluate(&scene, &hier, &sol, &probes, scene.params.output_level());
+    for (q, (d, ind)) in probes.iter().zip(&vals) {
+        let want = plane_expected(h, i, (q.p.x as f64).hypot(q.p.z as f64));
+        assert!(
+            common::rel(d.x as f64, want) < 1e-5,
+            "probe {q:?}: {d} vs {want}"
+        );
+        assert_eq!(*ind, Vec3::ZERO);
+    }
+}
