@@ -60,11 +60,7 @@ pub fn icosphere(r: f64, subdiv: u32) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
         let mut midpoint = |a: usize, b: usize, v: &mut Vec<[f64; 3]>| {
             *mid.entry((a.min(b), a.max(b))).or_insert_with(|| {
                 let (p, q) = (v[a], v[b]);
-                v.push(norm([
-                    (p[0] + q[0]) / 2.0,
-                    (p[1] + q[1]) / 2.0,
-                    (p[2] + q[2]) / 2.0,
-                ]));
+                v.push(norm([(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0, (p[2] + q[2]) / 2.0]));
                 v.len() - 1
             })
         };
@@ -106,22 +102,10 @@ fn write(dir: &Path, name: &str, text: &str) -> Result<PathBuf> {
 /// bounce `k` alone gives `ρ^k Φ/(4πr²)` at every point, so after `k` bounces
 /// `E_ind = Φ/(4πr²) Σ_{b=1..k} ρ^b`; at the centre `E_d = i/r²` too. Returns the scene
 /// file's path; `solver` is appended to its `[solver]` table.
-pub fn furnace(
-    dir: &Path,
-    r: f64,
-    subdiv: u32,
-    rho: f64,
-    light: [f64; 3],
-    i: f64,
-    solver: &str,
-) -> Result<PathBuf> {
+pub fn furnace(dir: &Path, r: f64, subdiv: u32, rho: f64, light: [f64; 3], i: f64, solver: &str) -> Result<PathBuf> {
     let (v, f) = icosphere(r, subdiv);
     write(dir, "sphere.obj", &obj_text(&v, &f, "sphere.mtl", "wall"))?;
-    write(
-        dir,
-        "sphere.mtl",
-        &format!("newmtl wall\nKd {rho} {rho} {rho}\n"),
-    )?;
+    write(dir, "sphere.mtl", &format!("newmtl wall\nKd {rho} {rho} {rho}\n"))?;
     write(
         dir,
         "furnace.toml",

@@ -4,10 +4,14 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use anyhow::{Context as _, Result};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use serde::Serialize;
 
+use std::sync::Arc;
+
+use crate::gpu::backend::GpuReport;
+use crate::gpu::{list_devices, Context, ContextOptions, GpuBackend};
 use crate::hierarchy::{Hierarchy, HierarchyStats};
 use crate::output::{self, image, ply, probe};
 use crate::params::{SolverParams, Variant};
@@ -34,6 +38,8 @@ enum Command {
     Solve(SolveArgs),
     /// Solve a scene and print the irradiance at given surface points (CSV).
     Probe(ProbeArgs),
+    /// List the Vulkan devices, their drivers, and whether meshrad can use them.
+    Devices,
 }
 
 /// Where the transport runs.
@@ -65,6 +71,9 @@ pub struct SolverArgs {
     /// Seed of all random choices.
     #[arg(long)]
     pub seed: Option<u32>,
+    /// Vulkan device, by index or name substring (see `meshrad devices`).
+    #[arg(long)]
+    pub device: Option<String>,
     /// Any other [solver] key, as KEY=VALUE (repeatable), e.g. --set eps_rel=0.05.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
@@ -118,6 +127,7 @@ pub fn main() -> ExitCode {
                 bounces: None,
                 rays: None,
                 seed: None,
+                device: None,
                 set: Vec::new(),
                 stats: false,
                 quiet: false,
@@ -125,6 +135,7 @@ pub fn main() -> ExitCode {
         }),
         Some(Command::Solve(a)) => solve_cmd(a),
         Some(Command::Probe(a)) => probe_cmd(a),
+        Some(Command::Devices) => devices_cmd(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -142,11 +153,7 @@ impl SolverArgs {
         if let Some(v) = self.variant {
             o.push(("variant".into(), toml::Value::String(v.name().into())));
         }
-        for (k, v) in [
-            ("bounces", self.bounces),
-            ("rays", self.rays),
-            ("seed", self.seed),
-        ] {
+        for (k, v) in [("bounces", self.bounces), ("rays", self.rays), ("seed", self.seed)] {
             if let Some(v) = v {
                 o.push((k.into(), toml::Value::Integer(v as i64)));
             }
@@ -194,6 +201,7 @@ pub struct RunStats<'a> {
     pub params: &'a SolverParams,
     pub hierarchy: &'a HierarchyStats,
     pub solve: &'a SolveStats,
+    pub gpu: Option<&'a GpuReport>,
     pub image: ImageSummary,
     pub seconds: PhaseSeconds,
 }
@@ -233,33 +241,76 @@ impl SceneSummary {
     }
 }
 
-/// Hierarchy and transport for a loaded scene on the chosen backend.
-pub fn run_solver(
-    scene: &Scene,
-    choice: BackendChoice,
-    progress: &Progress,
-) -> Result<(Hierarchy, Solution, f64, f64)> {
+/// A solve's results.
+pub struct Run {
+    pub hierarchy: Hierarchy,
+    pub solution: Solution,
+    pub gpu: Option<GpuReport>,
+    pub seconds_hierarchy: f64,
+    pub seconds_solve: f64,
+}
+
+/// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
+/// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
+/// backend is faster, so `auto` takes the CPU there, and says why on stderr.
+pub fn gpu_context(choice: BackendChoice, device: Option<&str>, quiet: bool) -> Result<Option<Arc<Context>>> {
+    let opts = ContextOptions::from_env(device.map(String::from));
+    match choice {
+        BackendChoice::Cpu => Ok(None),
+        BackendChoice::Gpu => Ok(Some(Arc::new(Context::new(&opts)?))),
+        BackendChoice::Auto => match Context::new(&opts) {
+            Ok(c) if device.is_some() || c.info.device_type != "CPU" => Ok(Some(Arc::new(c))),
+            Ok(c) => {
+                if !quiet {
+                    eprintln!(
+                        "note: auto backend: the only Vulkan device is {} (a CPU driver); using the CPU \
+                         backend (--backend gpu forces it)",
+                        c.info.name
+                    );
+                }
+                Ok(None)
+            }
+            Err(e) => {
+                if !quiet {
+                    eprintln!("note: auto backend: no Vulkan device ({e}); using the CPU backend");
+                }
+                Ok(None)
+            }
+        },
+    }
+}
+
+/// Hierarchy and transport for a loaded scene on the CPU (`ctx = None`) or a GPU.
+pub fn run_solver(scene: &Scene, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Run> {
     let t = Instant::now();
-    let h = Hierarchy::build(scene, progress)?;
-    let th = t.elapsed().as_secs_f64();
+    let hierarchy = Hierarchy::build(scene, progress)?;
+    let seconds_hierarchy = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let sol = match choice {
-        BackendChoice::Gpu => anyhow::bail!("the GPU backend is not available in this build"),
-        BackendChoice::Auto | BackendChoice::Cpu => {
-            let mut b = CpuBackend::new(scene, &h, progress);
-            transport::solve(scene, &mut b, progress)?
+    let (solution, gpu) = match ctx {
+        Some(ctx) => {
+            progress.stage("uploading to the GPU");
+            let mut b = GpuBackend::new(ctx, scene, &hierarchy)?;
+            let s = transport::solve(scene, &mut b, progress)?;
+            (s, Some(b.report.clone()))
+        }
+        None => {
+            let mut b = CpuBackend::new(scene, &hierarchy, progress);
+            (transport::solve(scene, &mut b, progress)?, None)
         }
     };
-    Ok((h, sol, th, t.elapsed().as_secs_f64()))
+    Ok(Run {
+        hierarchy,
+        solution,
+        gpu,
+        seconds_hierarchy,
+        seconds_solve: t.elapsed().as_secs_f64(),
+    })
 }
 
 fn report_load(scene: &Scene, quiet: bool) {
     let r = &scene.report;
     if r.degenerate_dropped > 0 {
-        eprintln!(
-            "note: dropped {} degenerate triangle(s)",
-            r.degenerate_dropped
-        );
+        eprintln!("note: dropped {} degenerate triangle(s)", r.degenerate_dropped);
     }
     if !r.emissive_materials_ignored.is_empty() && !quiet {
         eprintln!(
@@ -308,14 +359,16 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let scene = load_scene(a.scene.as_deref(), &a.solver)?;
     report_load(&scene, a.solver.quiet);
     let load = t.elapsed().as_secs_f64();
-    let (h, sol, th, ts) = run_solver(&scene, a.solver.backend, &progress)?;
+    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let run = run_solver(&scene, ctx, &progress)?;
+    let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
     progress.stage("images");
     output::ensure_dir(&a.out)?;
-    let img = image::render(&scene, &h, &sol, scene.params.output_level(), &progress);
+    let img = image::render(&scene, h, sol, scene.params.output_level(), &progress);
     image::write_all(&a.out, &img)?;
     if let Some(p) = &a.export_nodes {
-        ply::write(p, &scene, &h, &sol)?;
+        ply::write(p, &scene, h, sol)?;
     }
     let seconds = PhaseSeconds {
         load,
@@ -326,7 +379,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     };
     progress.finish();
     if a.solver.stats {
-        print_stats(&h, &sol, &seconds);
+        print_stats(h, sol, &seconds);
     }
     let stats = RunStats {
         scene: SceneSummary::of(&scene),
@@ -336,6 +389,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         params: &scene.params,
         hierarchy: &h.stats,
         solve: &sol.stats,
+        gpu: run.gpu.as_ref(),
         image: ImageSummary {
             width: img.width,
             height: img.height,
@@ -365,13 +419,43 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     let probes = probe::read(&a.points)?;
     let scene = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, a.solver.quiet);
-    let (h, sol, _, _) = run_solver(&scene, a.solver.backend, &progress)?;
-    let values = probe::evaluate(&scene, &h, &sol, &probes, scene.params.output_level());
+    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let run = run_solver(&scene, ctx, &progress)?;
+    let values = probe::evaluate(
+        &scene,
+        &run.hierarchy,
+        &run.solution,
+        &probes,
+        scene.params.output_level(),
+    );
     let text = probe::csv(&probes, &values);
     progress.finish();
     match &a.out {
         Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
         None => print!("{text}"),
+    }
+    Ok(())
+}
+
+fn devices_cmd() -> Result<()> {
+    let devices = list_devices()?;
+    if devices.is_empty() {
+        println!("no Vulkan devices");
+    }
+    for d in devices {
+        println!(
+            "{}: {} ({}), driver {} {} (version {:#x}), Vulkan {}, subgroup {}, {} MiB device-local{}",
+            d.index,
+            d.name,
+            d.device_type,
+            d.driver_name,
+            d.driver_info,
+            d.driver_version,
+            d.api_version,
+            d.subgroup_size,
+            d.device_local_bytes >> 20,
+            d.unusable.map(|u| format!(" — unusable: {u}")).unwrap_or_default()
+        );
     }
     Ok(())
 }

@@ -18,3 +18,7 @@ pub const KD_STACK: u32 = 32;
 pub const GATHER_GROUP: u32 = 128;
 /// Threads per workgroup of the per-element kernels.
 pub const LINEAR_GROUP: u32 = 64;
+/// Variants as the GLSL specialization constant `VARIANT` sees them.
+pub const VARIANT_ORIGINAL: u32 = 0;
+pub const VARIANT_MODIFIED: u32 = 1;
+pub const VARIANT_APPROX: u32 = 2;

@@ -11,6 +11,7 @@ pub mod cli;
 pub mod constants;
 pub mod error;
 pub mod geom;
+pub mod gpu;
 pub mod hierarchy;
 pub mod layout;
 pub mod output;

@@ -19,10 +19,7 @@ impl Progress {
     pub fn new(quiet: bool) -> Self {
         let spinner = (!quiet).then(|| {
             let s = ProgressBar::new_spinner();
-            s.set_style(
-                ProgressStyle::with_template("{spinner} [{elapsed}] {msg}")
-                    .expect("static template"),
-            );
+            s.set_style(ProgressStyle::with_template("{spinner} [{elapsed}] {msg}").expect("static template"));
             s.enable_steady_tick(Duration::from_millis(120));
             s
         });

@@ -7,8 +7,7 @@ use std::process::Command;
 
 const OBJ: &str = "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n";
 const MTL: &str = "newmtl a\nKd 0.5 0.5 0.5\n";
-const LIGHT: &str =
-    "[[light]]\ntype = \"point\"\nposition = [0.2, 0.2, 0.2]\nintensity = [1.0, 1.0, 1.0]\n";
+const LIGHT: &str = "[[light]]\ntype = \"point\"\nposition = [0.2, 0.2, 0.2]\nintensity = [1.0, 1.0, 1.0]\n";
 const FAST: &str = "[solver]\nlevels = 2\ncoarsest = 20\nrays = 16\nbounces = 1\nsender_level = 1\ngather_levels = 1\n";
 
 struct Case<'a> {
@@ -98,14 +97,8 @@ fn unknown_keys_are_errors() {
 
 #[test]
 fn impossible_parameters() {
-    fails_with(
-        scene(&default_toml().replace("rays = 16", "rays = -5")),
-        &["rays"],
-    );
-    fails_with(
-        scene(&default_toml().replace("levels = 2", "levels = 0")),
-        &["levels"],
-    );
+    fails_with(scene(&default_toml().replace("rays = 16", "rays = -5")), &["rays"]);
+    fails_with(scene(&default_toml().replace("levels = 2", "levels = 0")), &["levels"]);
     fails_with(
         scene(&default_toml().replace("sender_level = 1", "sender_level = 3")),
         &["sender_level"],
@@ -147,10 +140,7 @@ fn bad_lights() {
 
 #[test]
 fn missing_mesh_material_and_texture_files() {
-    fails_with(
-        scene(&default_toml().replace("m.obj", "nope.obj")),
-        &["nope.obj"],
-    );
+    fails_with(scene(&default_toml().replace("m.obj", "nope.obj")), &["nope.obj"]);
     let mut c = scene(&default_toml());
     c.obj = "mtllib missing.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
     fails_with(c, &["m.obj", "missing.mtl"]);

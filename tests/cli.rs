@@ -30,9 +30,7 @@ fn check_images(dir: &Path, w: u32, h: u32) {
         let exr = exr::prelude::read_first_rgba_layer_from_file(
             dir.join(format!("{stem}.exr")),
             |res, _| vec![0.0f32; res.width() * res.height()],
-            move |px: &mut Vec<f32>, pos, (r, _g, _b, _a): (f32, f32, f32, f32)| {
-                px[pos.y() * w as usize + pos.x()] = r
-            },
+            move |px: &mut Vec<f32>, pos, (r, _g, _b, _a): (f32, f32, f32, f32)| px[pos.y() * w as usize + pos.x()] = r,
         )
         .expect("exr decodes");
         let px = exr.layer_data.channel_data.pixels;
@@ -98,10 +96,7 @@ fn solve_a_scene_file_with_flags_and_export_nodes() {
     );
     ok(&o);
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(
-        err.contains("nodes per level") && err.contains("bounce 2"),
-        "{err}"
-    );
+    assert!(err.contains("nodes per level") && err.contains("bounce 2"), "{err}");
     check_images(&out, 256, 256);
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
@@ -164,11 +159,7 @@ fn probe_prints_the_csv() {
     }
     // The floor centre is directly under the spot: E_d = I / h².
     let want = 300000.0 / (548.0f64 * 548.0);
-    assert!(
-        (rows[0][6] - want).abs() < 1e-4 * want,
-        "{} vs {want}",
-        rows[0][6]
-    );
+    assert!((rows[0][6] - want).abs() < 1e-4 * want, "{} vs {want}", rows[0][6]);
     // The ceiling sees no direct light but gets indirect light.
     assert_eq!(rows[2][6], 0.0);
     assert!(rows[2][9] > 0.0);
@@ -183,4 +174,52 @@ fn probe_prints_the_csv() {
     );
     ok(&o);
     assert!(String::from_utf8_lossy(&o.stdout).starts_with("px,py,pz"));
+}
+
+#[test]
+fn gpu_backend_from_the_command_line() {
+    let dir = common::tmpdir();
+    let o = meshrad(&["devices"], dir.path());
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("0: "));
+    let out = dir.path().join("g");
+    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args([
+            "solve",
+            "--backend",
+            "gpu",
+            "--out",
+            out.to_str().unwrap(),
+            "--rays",
+            "32",
+            "--bounces",
+            "2",
+            "--set",
+            "levels=4",
+            "--set",
+            "sender_level=3",
+            "--stats",
+            "-q",
+        ])
+        .env("MESHRAD_VALIDATION", "1")
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    ok(&o);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("kernel trace:") && err.contains("kernel reduce:"), "{err}");
+    assert!(!err.contains("validation error"), "{err}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert!(stats["backend"].as_str().unwrap().starts_with("gpu"));
+    assert_eq!(stats["gpu"]["validation_errors"], 0);
+    let kernels = stats["solve"]["kernel_seconds"].as_array().unwrap();
+    assert!(kernels.len() >= 9, "{kernels:?}");
+    check_images(&out, 256, 256);
+    let o = meshrad(
+        &["solve", "--backend", "gpu", "--device", "no-such-device", "-q"],
+        dir.path(),
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-device"));
 }

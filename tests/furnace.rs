@@ -28,7 +28,7 @@ struct Errors {
     bounce_max: f64,
 }
 
-fn run(variant: Variant, light: [f64; 3]) -> Errors {
+fn run(variant: Variant, light: [f64; 3], gpu: bool) -> Errors {
     let dir = common::tmpdir();
     let solver = format!(
         "levels = 4\ncoarsest = 60\nrays = 256\nbounces = {K}\nsender_level = 3\ngather_levels = 3\n\
@@ -37,7 +37,20 @@ fn run(variant: Variant, light: [f64; 3]) -> Errors {
     );
     let path = furnace(dir.path(), R, 4, RHO, light, I, &solver).unwrap();
     let scene = common::load(&path, &[]);
-    let (h, sol) = common::solve_cpu(&scene);
+    let (h, sol) = if gpu {
+        let ctx = std::sync::Arc::new(
+            meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
+                validation: true,
+                device: None,
+            })
+            .expect("a Vulkan device (lavapipe in CI)"),
+        );
+        let r = meshrad::cli::run_solver(&scene, Some(ctx.clone()), &meshrad::progress::Progress::hidden()).unwrap();
+        assert_eq!(ctx.validation_errors(), 0);
+        (r.hierarchy, r.solution)
+    } else {
+        common::solve_cpu(&scene)
+    };
     let (ed, eind, _) = furnace_expected(R, RHO, I, K);
     let out = scene.params.output_level();
     let mut e = Errors {
@@ -50,17 +63,9 @@ fn run(variant: Variant, light: [f64; 3]) -> Errors {
     let (mut sum, mut n) = (0.0, 0.0);
     for j in h.level_range(out as usize) {
         let nd = &h.nodes[j];
-        e.direct_max = e
-            .direct_max
-            .max(common::rel(sol.values.direct[j].x as f64, ed));
+        e.direct_max = e.direct_max.max(common::rel(sol.values.direct[j].x as f64, ed));
         let v = sol
-            .indirect_on(
-                &h,
-                nd.object as usize,
-                Vec3::from(nd.pos),
-                Vec3::from(nd.normal),
-                out,
-            )
+            .indirect_on(&h, nd.object as usize, Vec3::from(nd.pos), Vec3::from(nd.normal), out)
             .x as f64;
         e.indirect_max = e.indirect_max.max(common::rel(v, eind));
         sum += v;
@@ -71,14 +76,8 @@ fn run(variant: Variant, light: [f64; 3]) -> Errors {
     for k in 0..64 {
         let z = 1.0 - 2.0 * (k as f32 + 0.5) / 64.0;
         let phi = k as f32 * 2.399_963;
-        let d = Vec3::new(
-            (1.0 - z * z).sqrt() * phi.cos(),
-            (1.0 - z * z).sqrt() * phi.sin(),
-            z,
-        );
-        let v = sol
-            .indirect_at(&scene, &h, d * (R as f32 * 0.999), -d, out)
-            .x as f64;
+        let d = Vec3::new((1.0 - z * z).sqrt() * phi.cos(), (1.0 - z * z).sqrt() * phi.sin(), z);
+        let v = sol.indirect_at(&scene, &h, d * (R as f32 * 0.999), -d, out).x as f64;
         e.probe_max = e.probe_max.max(common::rel(v, eind));
     }
     // Per bounce: the un-shot energy relative to the direct energy is ρ^k.
@@ -87,13 +86,13 @@ fn run(variant: Variant, light: [f64; 3]) -> Errors {
         e.bounce_max = e.bounce_max.max(common::rel(b.unshot_ratio, want));
     }
     assert_eq!(sol.stats.bounces.len(), K as usize);
-    println!("{variant:?} light {light:?}: {e:?}");
+    println!("{variant:?} light {light:?} gpu {gpu}: {e:?}");
     e
 }
 
 /// Centred light: the series to 0.5 % (polyhedron and f32), per bounce to 0.5 %.
-fn check_centred(variant: Variant) {
-    let e = run(variant, [0.0; 3]);
+fn check_centred(variant: Variant, gpu: bool) {
+    let e = run(variant, [0.0; 3], gpu);
     assert!(e.direct_max < 0.005, "{e:?}");
     assert!(e.indirect_mean < 0.005, "{e:?}");
     assert!(e.indirect_max < 0.005, "{e:?}");
@@ -103,8 +102,8 @@ fn check_centred(variant: Variant) {
 
 /// Off-centre light: mean within 1 %, every node and probe within 3 %, the per-bounce
 /// energy ratio within 5 % (level-0 sums of a 9:1 field over ~60 nodes).
-fn check_off_centre(variant: Variant) {
-    let e = run(variant, [0.35, -0.2, 0.1]);
+fn check_off_centre(variant: Variant, gpu: bool) {
+    let e = run(variant, [0.35, -0.2, 0.1], gpu);
     assert!(e.indirect_mean < 0.01, "{e:?}");
     assert!(e.indirect_max < 0.03, "{e:?}");
     assert!(e.probe_max < 0.03, "{e:?}");
@@ -113,18 +112,26 @@ fn check_off_centre(variant: Variant) {
 
 #[test]
 fn furnace_modified() {
-    check_centred(Variant::Modified);
-    check_off_centre(Variant::Modified);
+    check_centred(Variant::Modified, false);
+    check_off_centre(Variant::Modified, false);
 }
 
 #[test]
 fn furnace_approx() {
-    check_centred(Variant::Approx);
-    check_off_centre(Variant::Approx);
+    check_centred(Variant::Approx, false);
+    check_off_centre(Variant::Approx, false);
 }
 
 #[test]
 fn furnace_original() {
-    check_centred(Variant::Original);
-    check_off_centre(Variant::Original);
+    check_centred(Variant::Original, false);
+    check_off_centre(Variant::Original, false);
+}
+
+#[test]
+fn furnace_gpu_all_variants() {
+    for v in Variant::ALL {
+        check_centred(v, true);
+        check_off_centre(v, true);
+    }
 }

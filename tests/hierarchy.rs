@@ -42,10 +42,7 @@ fn poisson_distance_on_every_level() {
                 pos: Vec3::from(nd.pos),
                 normal: Vec3::from(nd.normal),
             };
-            assert!(
-                !g.conflicts(&c),
-                "level {l}: two same-side nodes closer than r = {r}"
-            );
+            assert!(!g.conflicts(&c), "level {l}: two same-side nodes closer than r = {r}");
             g.insert(c);
         }
         println!("level {l}: {} nodes, r = {r}", nodes.len());
@@ -56,10 +53,7 @@ fn poisson_distance_on_every_level() {
         let ratio = n[l] as f64 / n[l - 1] as f64;
         assert!((3.0..4.6).contains(&ratio), "{n:?}");
     }
-    assert!(
-        (150..320).contains(&n[0]),
-        "coarsest {n:?} for a target of 226"
-    );
+    assert!((150..320).contains(&n[0]), "coarsest {n:?} for a target of 226");
 }
 
 #[test]
@@ -74,10 +68,7 @@ fn dart_throwing_is_maximal() {
         g.insert(*c);
     }
     for c in &pool {
-        assert!(
-            g.conflicts(c) || set.contains(c),
-            "candidate not covered: not maximal"
-        );
+        assert!(g.conflicts(c) || set.contains(c), "candidate not covered: not maximal");
     }
 }
 
@@ -118,10 +109,7 @@ fn parent_weights_sum_to_one() {
         let ps = h.parents_of(c);
         assert!(!ps.is_empty(), "node {c} has no parent");
         let s: f32 = ps.iter().map(|p| p.weight).sum();
-        assert!(
-            (s - 1.0).abs() < 1e-5,
-            "node {c}: parent weights sum to {s}"
-        );
+        assert!((s - 1.0).abs() < 1e-5, "node {c}: parent weights sum to {s}");
         for p in ps {
             assert_eq!(h.nodes[p.node as usize].level + 1, h.nodes[c].level);
             assert!(h.children_of(p.node as usize).contains(&(c as u32)));
@@ -144,10 +132,7 @@ fn same_seed_same_everything() {
         let (h, sol) = common::solve_cpu(&s);
         (h.nodes, sol.values.direct, sol.values.indirect)
     };
-    assert!(
-        a.0 == b.0,
-        "nodes differ between two runs with the same seed"
-    );
+    assert!(a.0 == b.0, "nodes differ between two runs with the same seed");
     assert!(
         a.1 == b.1 && a.2 == b.2,
         "values differ between two runs with the same seed"

@@ -90,11 +90,7 @@ pub fn slab(node: &BvhNode, o: Vec3, inv: Vec3, tmax: f32) -> f32 {
 /// whose triangles start at `tri_offset`.
 pub fn rebase(nodes: &mut [BvhNode], node_offset: u32, tri_offset: u32) {
     for n in nodes {
-        n.first_index += if n.prim_count > 0 {
-            tri_offset
-        } else {
-            node_offset
-        };
+        n.first_index += if n.prim_count > 0 { tri_offset } else { node_offset };
     }
 }
 

@@ -97,9 +97,7 @@ impl WatertightRay {
 #[inline]
 pub fn tri_normal(t: &Tri) -> Vec3 {
     let v0 = Vec3::from(t.v0);
-    (Vec3::from(t.v1) - v0)
-        .cross(Vec3::from(t.v2) - v0)
-        .normalize_or_zero()
+    (Vec3::from(t.v1) - v0).cross(Vec3::from(t.v2) - v0).normalize_or_zero()
 }
 
 /// Point on a triangle from barycentrics of (v1, v2).
@@ -121,11 +119,7 @@ pub fn offset_origin(p: Vec3, n: Vec3, scale: f32) -> Vec3 {
         let of = (256.0 * n[i]) as i32;
         let bits = p[i].to_bits() as i32;
         let moved = f32::from_bits(bits.wrapping_add(if p[i] < 0.0 { -of } else { of }) as u32);
-        out[i] = if p[i].abs() < near {
-            p[i] + fine * n[i]
-        } else {
-            moved
-        };
+        out[i] = if p[i].abs() < near { p[i] + fine * n[i] } else { moved };
     }
     Vec3::from(out)
 }
@@ -156,9 +150,7 @@ mod tests {
             o: Vec3::new(0.75, 0.75, 1.0),
             d: Vec3::new(0.0, 0.0, -1.0),
         };
-        assert!(WatertightRay::new(&miss)
-            .intersect(&t, f32::INFINITY)
-            .is_none());
+        assert!(WatertightRay::new(&miss).intersect(&t, f32::INFINITY).is_none());
         assert!(WatertightRay::new(&r).intersect(&t, 0.4).is_none());
     }
 
@@ -175,8 +167,7 @@ mod tests {
                 d,
             };
             let w = WatertightRay::new(&r);
-            let hit = w.intersect(&a, f32::INFINITY).is_some()
-                || w.intersect(&b, f32::INFINITY).is_some();
+            let hit = w.intersect(&a, f32::INFINITY).is_some() || w.intersect(&b, f32::INFINITY).is_some();
             assert!(hit, "crack at s = {s}");
         }
     }

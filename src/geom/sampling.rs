@@ -93,15 +93,9 @@ mod tests {
 
     #[test]
     fn onb_is_orthonormal() {
-        for (i, n) in [
-            Vec3::X,
-            Vec3::Y,
-            Vec3::Z,
-            -Vec3::Z,
-            Vec3::new(1.0, -2.0, 0.5),
-        ]
-        .into_iter()
-        .enumerate()
+        for (i, n) in [Vec3::X, Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(1.0, -2.0, 0.5)]
+            .into_iter()
+            .enumerate()
         {
             let n = n.normalize();
             let (t, b) = onb(n);

@@ -52,11 +52,7 @@ impl Transform {
 
 fn affine(m: Mat3, t: Vec3) -> Affine {
     if m == Mat3::IDENTITY && t == Vec3::ZERO {
-        return [
-            [1.0, 0.0, 0.0, 0.0],
-            [0.0, 1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0, 0.0],
-        ];
+        return [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0]];
     }
     let r = m.transpose(); // rows of m are columns of the transpose
     [

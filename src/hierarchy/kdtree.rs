@@ -83,14 +83,7 @@ pub fn range(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut f: impl Fn
 /// The first leaf met by a near-first descent for `p` whose node lies within `r` and has
 /// a normal with `n · n_j > cos_min` (paper §5.1): the approximate reconstruction.
 #[inline]
-pub fn first_leaf(
-    nodes: &[Node],
-    splits: &[KdSplit],
-    p: Vec3,
-    n: Vec3,
-    r: f32,
-    cos_min: f32,
-) -> Option<usize> {
+pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, n: Vec3, r: f32, cos_min: f32) -> Option<usize> {
     let mut found = None;
     let mut stack = [(0u32, 0u32); KD_STACK];
     let mut sp = usize::from(!nodes.is_empty());
@@ -102,9 +95,7 @@ pub fn first_leaf(
         loop {
             if hi - lo == 1 {
                 let nd = &nodes[lo as usize];
-                if (Vec3::from(nd.pos) - p).length_squared() < r2
-                    && n.dot(Vec3::from(nd.normal)) > cos_min
-                {
+                if (Vec3::from(nd.pos) - p).length_squared() < r2 && n.dot(Vec3::from(nd.normal)) > cos_min {
                     found = Some(lo as usize);
                 }
                 break;

@@ -90,9 +90,7 @@ impl Hierarchy {
             .map(|o| {
                 let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
                 let s = o.transform.scale as f64;
-                poisson::reachable_area(&scene.tris[r.clone()], &sides[r.start * 2..r.end * 2])
-                    * s
-                    * s
+                poisson::reachable_area(&scene.tris[r.clone()], &sides[r.start * 2..r.end * 2]) * s * s
             })
             .collect();
         let area: f64 = areas.iter().sum();
@@ -101,8 +99,7 @@ impl Hierarchy {
             return Err(Error::SceneValue {
                 path: scene.path.clone(),
                 key: "light".into(),
-                message: "no light reaches any surface: check the lights' positions and directions"
-                    .into(),
+                message: "no light reaches any surface: check the lights' positions and directions".into(),
             });
         }
         let r0 = (0.7 * area / p.coarsest as f64).sqrt();
@@ -211,9 +208,7 @@ impl Hierarchy {
             parts.into_par_iter().for_each(|(n, s)| kdtree::build(n, s));
         }
         stats.seconds_kdtree = t.elapsed().as_secs_f64();
-        stats.nodes_per_level = (0..m)
-            .map(|l| level_start[l + 1] - level_start[l])
-            .collect();
+        stats.nodes_per_level = (0..m).map(|l| level_start[l + 1] - level_start[l]).collect();
 
         let mut h = Hierarchy {
             levels: p.levels,
@@ -253,26 +248,12 @@ impl Hierarchy {
 
     /// Calls `f(global index, w)` for every node of (o, l) with `w_j(p) > 0`.
     #[inline]
-    pub fn for_each_weight(
-        &self,
-        o: usize,
-        l: usize,
-        p: Vec3,
-        n: Vec3,
-        mut f: impl FnMut(usize, f32),
-    ) {
+    pub fn for_each_weight(&self, o: usize, l: usize, p: Vec3, n: Vec3, mut f: impl FnMut(usize, f32)) {
         let (nodes, splits, base) = self.level(o, l);
         let h = self.support(o, l);
         kdtree::range(nodes, splits, p, h, |i| {
             let nd = &nodes[i];
-            let w = node_weight(
-                p,
-                n,
-                Vec3::from(nd.pos),
-                Vec3::from(nd.normal),
-                h,
-                self.alpha,
-            );
+            let w = node_weight(p, n, Vec3::from(nd.pos), Vec3::from(nd.normal), h, self.alpha);
             if w > 0.0 {
                 f(base + i, w);
             }
@@ -378,9 +359,7 @@ impl Hierarchy {
         let mut fill = self.child_offset.clone();
         self.children = vec![0; acc as usize];
         for c in 0..n {
-            for q in
-                &self.parents[self.parent_offset[c] as usize..self.parent_offset[c + 1] as usize]
-            {
+            for q in &self.parents[self.parent_offset[c] as usize..self.parent_offset[c + 1] as usize] {
                 let k = &mut fill[q.node as usize];
                 self.children[*k as usize] = c as u32;
                 *k += 1;

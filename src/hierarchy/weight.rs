@@ -28,10 +28,7 @@ mod tests {
         let half = node_weight(Vec3::X * 0.5, n, Vec3::ZERO, n, 1.0, 1.0);
         assert!((half - 0.421_875).abs() < 1e-6);
         // A crease of 90° or more gets no weight, whatever the distance.
-        assert_eq!(
-            node_weight(Vec3::ZERO, n, Vec3::ZERO, Vec3::X, 1.0, 1.0),
-            0.0
-        );
+        assert_eq!(node_weight(Vec3::ZERO, n, Vec3::ZERO, Vec3::X, 1.0, 1.0), 0.0);
         assert_eq!(node_weight(Vec3::ZERO, n, Vec3::ZERO, -n, 1.0, 1.0), 0.0);
     }
 }

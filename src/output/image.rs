@@ -28,22 +28,12 @@ pub struct Images {
 impl Images {
     /// Direct plus indirect.
     pub fn total(&self) -> Vec<Vec3> {
-        self.direct
-            .iter()
-            .zip(&self.indirect)
-            .map(|(a, b)| *a + *b)
-            .collect()
+        self.direct.iter().zip(&self.indirect).map(|(a, b)| *a + *b).collect()
     }
 }
 
 /// Renders the camera view of a solution, reading the indirect light from `level`.
-pub fn render(
-    scene: &Scene,
-    h: &Hierarchy,
-    sol: &Solution,
-    level: u32,
-    progress: &Progress,
-) -> Images {
+pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress: &Progress) -> Images {
     let cam = &scene.camera;
     let (w, hgt) = (cam.width as usize, cam.height as usize);
     let bar = progress.bar(hgt as u64, "image");
@@ -103,10 +93,7 @@ pub fn write_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3]) -> Result
     })?;
     let png_path = dir.join(format!("{stem}.png"));
     let enc = |v: f32| (v.max(0.0).powf(1.0 / 2.2).min(1.0) * 255.0 + 0.5) as u8;
-    let buf: Vec<u8> = px
-        .iter()
-        .flat_map(|p| [enc(p.x), enc(p.y), enc(p.z)])
-        .collect();
+    let buf: Vec<u8> = px.iter().flat_map(|p| [enc(p.x), enc(p.y), enc(p.z)]).collect();
     image::save_buffer(&png_path, &buf, w, h, image::ColorType::Rgb8).map_err(|e| Error::Output {
         path: png_path,
         message: e.to_string(),

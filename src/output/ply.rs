@@ -25,9 +25,7 @@ pub fn write(path: &Path, scene: &Scene, h: &Hierarchy, sol: &Solution) -> Resul
             writeln!(out, "property float {p}")?;
         }
         writeln!(out, "property int level")?;
-        for p in [
-            "radius", "ed_r", "ed_g", "ed_b", "eind_r", "eind_g", "eind_b",
-        ] {
+        for p in ["radius", "ed_r", "ed_g", "ed_b", "eind_r", "eind_g", "eind_b"] {
             writeln!(out, "property float {p}")?;
         }
         writeln!(out, "end_header")
@@ -38,14 +36,7 @@ pub fn write(path: &Path, scene: &Scene, h: &Hierarchy, sol: &Solution) -> Resul
         let o = nd.object as usize;
         let l = nd.level as usize;
         let eind = if sol.variant.is_delta() {
-            reconstruct::delta_sum(
-                h,
-                o,
-                l,
-                Vec3::from(nd.pos),
-                Vec3::from(nd.normal),
-                &sol.values.indirect,
-            )
+            reconstruct::delta_sum(h, o, l, Vec3::from(nd.pos), Vec3::from(nd.normal), &sol.values.indirect)
         } else {
             sol.values.indirect[j].xyz()
         };

@@ -39,10 +39,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
         let vals = l
             .split(|c: char| c.is_whitespace() || c == ',')
             .filter(|s| !s.is_empty())
-            .map(|s| {
-                s.parse::<f32>()
-                    .map_err(|_| bad(format!("`{s}` is not a number")))
-            })
+            .map(|s| s.parse::<f32>().map_err(|_| bad(format!("`{s}` is not a number"))))
             .collect::<Result<Vec<f32>>>()?;
         if vals.len() != 6 {
             return Err(bad(format!(
@@ -79,13 +76,7 @@ pub fn read(path: &Path) -> Result<Vec<Probe>> {
 }
 
 /// Direct (exact) and indirect (hierarchy, clamped at zero) irradiance at each probe.
-pub fn evaluate(
-    scene: &Scene,
-    h: &Hierarchy,
-    sol: &Solution,
-    probes: &[Probe],
-    level: u32,
-) -> Vec<(Vec3, Vec3)> {
+pub fn evaluate(scene: &Scene, h: &Hierarchy, sol: &Solution, probes: &[Probe], level: u32) -> Vec<(Vec3, Vec3)> {
     probes
         .par_iter()
         .map(|q| {

@@ -113,12 +113,7 @@ impl Scene {
     }
 
     /// Parses and loads a scene whose files come from `source`.
-    pub fn from_toml(
-        text: &str,
-        path: &Path,
-        source: Source,
-        overrides: &[(String, toml::Value)],
-    ) -> Result<Scene> {
+    pub fn from_toml(text: &str, path: &Path, source: Source, overrides: &[(String, toml::Value)]) -> Result<Scene> {
         let mut file: config::SceneFile = toml::from_str(text).map_err(|e| Error::SceneSyntax {
             path: path.into(),
             message: e.to_string().trim_end().to_string(),
@@ -166,9 +161,7 @@ impl Scene {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            if let Some((tri, t, b1, b2)) =
-                bvh::trace(&self.bvh, &self.tris, o.bvh_root, &r, tmax, false)
-            {
+            if let Some((tri, t, b1, b2)) = bvh::trace(&self.bvh, &self.tris, o.bvh_root, &r, tmax, false) {
                 tmax = t;
                 best = Some(Hit {
                     object: i as u32,
@@ -226,12 +219,7 @@ impl Scene {
             uv[0] * b0 + uv[2] * b1 + uv[4] * b2,
             uv[1] * b0 + uv[3] * b1 + uv[5] * b2,
         );
-        kd * texture::sample(
-            &self.texels,
-            &self.textures[m.texture as usize],
-            u,
-            &self.srgb,
-        )
+        kd * texture::sample(&self.texels, &self.textures[m.texture as usize], u, &self.srgb)
     }
 
     /// The shadow-ray origin for a world-space surface point.
@@ -267,12 +255,8 @@ impl Scene {
 }
 
 /// Replaces `[solver]` keys; each key is checked on its own so that an error names it.
-pub fn apply_overrides(
-    params: &SolverParams,
-    overrides: &[(String, toml::Value)],
-) -> Result<SolverParams> {
-    let mut table =
-        toml::Table::try_from(params).map_err(|e| Error::param("solver", e.to_string()))?;
+pub fn apply_overrides(params: &SolverParams, overrides: &[(String, toml::Value)]) -> Result<SolverParams> {
+    let mut table = toml::Table::try_from(params).map_err(|e| Error::param("solver", e.to_string()))?;
     for (k, v) in overrides {
         let mut one = toml::Table::new();
         one.insert(k.clone(), v.clone());
@@ -299,13 +283,7 @@ struct Builder {
 }
 
 impl Builder {
-    fn add_object(
-        &mut self,
-        source: &Source,
-        scene_path: &Path,
-        i: usize,
-        e: &config::ObjectEntry,
-    ) -> Result<()> {
+    fn add_object(&mut self, source: &Source, scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Result<()> {
         let key = |f: &str| format!("object[{i}].{f}");
         let bad = |k: String, m: String| Error::SceneValue {
             path: scene_path.into(),
@@ -314,18 +292,12 @@ impl Builder {
         };
         let scale = e.scale.unwrap_or(1.0);
         if !(scale.is_finite() && scale > 0.0) {
-            return Err(bad(
-                key("scale"),
-                format!("{scale} must be finite and positive"),
-            ));
+            return Err(bad(key("scale"), format!("{scale} must be finite and positive")));
         }
         let rotate = Vec3::from(e.rotate.unwrap_or([0.0; 3]));
         let translate = Vec3::from(e.translate.unwrap_or([0.0; 3]));
         if !rotate.is_finite() || !translate.is_finite() {
-            return Err(bad(
-                key("translate"),
-                "transform values must be finite".into(),
-            ));
+            return Err(bad(key("translate"), "transform values must be finite".into()));
         }
         let tess = e.tessellate.unwrap_or(0);
         if tess > 8 {

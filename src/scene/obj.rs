@@ -91,10 +91,7 @@ pub fn load(source: &Source, rel: &Path) -> Result<LoadedMesh> {
             .map(|m| MtlData {
                 name: m.name.clone(),
                 kd: m.diffuse.unwrap_or(DEFAULT_KD),
-                texture: m
-                    .diffuse_texture
-                    .as_ref()
-                    .map(|t| dir.join(t.replace('\\', "/"))),
+                texture: m.diffuse_texture.as_ref().map(|t| dir.join(t.replace('\\', "/"))),
                 emissive: m.emissive.is_some_and(|e| e.iter().any(|&c| c != 0.0)),
                 origin: shown.clone(),
             })
@@ -173,11 +170,7 @@ pub fn tessellate(tris: &[Tri], uvs: &[[f32; 6]]) -> (Vec<Tri>, Vec<[f32; 6]>) {
     let mut out_uv = Vec::with_capacity(uvs.len() * 4);
     for (i, t) in tris.iter().enumerate() {
         let v = [Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2)];
-        let m = [
-            (v[0] + v[1]) * 0.5,
-            (v[1] + v[2]) * 0.5,
-            (v[2] + v[0]) * 0.5,
-        ];
+        let m = [(v[0] + v[1]) * 0.5, (v[1] + v[2]) * 0.5, (v[2] + v[0]) * 0.5];
         let mk = |a: Vec3, b: Vec3, c: Vec3| Tri {
             v0: a.into(),
             v1: b.into(),
@@ -221,12 +214,8 @@ fn check_lines(text: &str) -> std::result::Result<(), (usize, String)> {
                 for w in &vals[..3] {
                     match w.parse::<f32>() {
                         Ok(x) if x.is_finite() => {}
-                        Ok(_) => {
-                            return Err((line, format!("vertex coordinate `{w}` is not finite")))
-                        }
-                        Err(_) => {
-                            return Err((line, format!("vertex coordinate `{w}` is not a number")))
-                        }
+                        Ok(_) => return Err((line, format!("vertex coordinate `{w}` is not finite"))),
+                        Err(_) => return Err((line, format!("vertex coordinate `{w}` is not a number"))),
                     }
                 }
                 nv += 1;
@@ -234,10 +223,7 @@ fn check_lines(text: &str) -> std::result::Result<(), (usize, String)> {
             Some("vt") => {
                 for w in words.take(2) {
                     if !w.parse::<f32>().is_ok_and(f32::is_finite) {
-                        return Err((
-                            line,
-                            format!("texture coordinate `{w}` is not a finite number"),
-                        ));
+                        return Err((line, format!("texture coordinate `{w}` is not a finite number")));
                     }
                 }
                 nvt += 1;
@@ -249,19 +235,16 @@ fn check_lines(text: &str) -> std::result::Result<(), (usize, String)> {
                 }
                 for r in refs {
                     let mut parts = r.split('/');
-                    let check =
-                        |s: Option<&str>, n: i64, what: &str| -> std::result::Result<(), String> {
-                            match s {
-                                None | Some("") => Ok(()),
-                                Some(s) => match s.parse::<i64>() {
-                                    Ok(k) if (k > 0 && k <= n) || (k < 0 && -k <= n) => Ok(()),
-                                    Ok(k) => Err(format!(
-                                        "face refers to {what} {k}, but {n} are defined before it"
-                                    )),
-                                    Err(_) => Err(format!("face reference `{r}` is not an index")),
-                                },
-                            }
-                        };
+                    let check = |s: Option<&str>, n: i64, what: &str| -> std::result::Result<(), String> {
+                        match s {
+                            None | Some("") => Ok(()),
+                            Some(s) => match s.parse::<i64>() {
+                                Ok(k) if (k > 0 && k <= n) || (k < 0 && -k <= n) => Ok(()),
+                                Ok(k) => Err(format!("face refers to {what} {k}, but {n} are defined before it")),
+                                Err(_) => Err(format!("face reference `{r}` is not an index")),
+                            },
+                        }
+                    };
                     let v = parts.next();
                     if v.is_none_or(str::is_empty) {
                         return Err((line, format!("face reference `{r}` has no vertex index")));
@@ -320,10 +303,7 @@ mod tests {
             .iter()
             .map(|t| {
                 let v0 = Vec3::from(t.v0);
-                (Vec3::from(t.v1) - v0)
-                    .cross(Vec3::from(t.v2) - v0)
-                    .length()
-                    * 0.5
+                (Vec3::from(t.v1) - v0).cross(Vec3::from(t.v2) - v0).length() * 0.5
             })
             .sum();
         assert_eq!(out.len(), 4);

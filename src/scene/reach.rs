@@ -32,9 +32,7 @@ pub fn reachable_sides(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Ve
             comp_hit[uf.find(s as u32) as usize] = true;
         }
     }
-    (0..hit.len())
-        .map(|s| comp_hit[uf.find(s as u32) as usize])
-        .collect()
+    (0..hit.len()).map(|s| comp_hit[uf.find(s as u32) as usize]).collect()
 }
 
 fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Ray {
@@ -65,9 +63,7 @@ fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Ray {
 }
 
 fn trace_marks(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool> {
-    let marks: Vec<AtomicBool> = (0..scene.tris.len() * 2)
-        .map(|_| AtomicBool::new(false))
-        .collect();
+    let marks: Vec<AtomicBool> = (0..scene.tris.len() * 2).map(|_| AtomicBool::new(false)).collect();
     let lights = scene.lights.len() as u32;
     let chunk = 1024u32;
     let chunks = paths.div_ceil(chunk);

@@ -7,10 +7,7 @@ use crate::error::{Error, Result};
 
 /// The shipped Cornell box, embedded.
 pub const EMBEDDED_CORNELL: &[(&str, &[u8])] = &[
-    (
-        "cornell_box.toml",
-        include_bytes!("../../scenes/cornell_box.toml"),
-    ),
+    ("cornell_box.toml", include_bytes!("../../scenes/cornell_box.toml")),
     (
         "cornell_original_mm.obj",
         include_bytes!("../../scenes/cornell_original_mm.obj"),

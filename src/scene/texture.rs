@@ -48,8 +48,17 @@ pub fn load(source: &Source, rel: &Path) -> Result<(u32, u32, Vec<u32>)> {
 
 #[inline]
 fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -> Vec3 {
-    let xw = x.rem_euclid(info.width as i32) as u32;
-    let yw = y.rem_euclid(info.height as i32) as u32;
+    let wrap = |i: i32, n: u32| {
+        let n = n as i32;
+        (if i < 0 {
+            i + n
+        } else if i >= n {
+            i - n
+        } else {
+            i
+        }) as u32
+    };
+    let (xw, yw) = (wrap(x, info.width), wrap(y, info.height));
     let p = texels[(info.offset + yw * info.width + xw) as usize];
     Vec3::new(
         lut[(p & 0xff) as usize],
@@ -60,8 +69,9 @@ fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -
 
 /// Bilinear, repeating lookup of linear albedo at `uv`.
 pub fn sample(texels: &[u32], info: &TextureInfo, uv: Vec2, lut: &[f32; 256]) -> Vec3 {
-    let x = uv.x * info.width as f32 - 0.5;
-    let y = (1.0 - uv.y) * info.height as f32 - 0.5;
+    // Repeat: wrap uv into [0, 1) first, so texel indices stay within one period.
+    let x = (uv.x - uv.x.floor()) * info.width as f32 - 0.5;
+    let y = (1.0 - (uv.y - uv.y.floor())) * info.height as f32 - 0.5;
     let (fx, fy) = (x.floor(), y.floor());
     let (tx, ty) = (x - fx, y - fy);
     let (ix, iy) = (fx as i32, fy as i32);
@@ -115,9 +125,6 @@ mod tests {
         assert!((at(0.75) - 1.0).abs() < 1e-6);
         assert!((at(0.5) - 0.5).abs() < 1e-6);
         assert!((at(1.25) - at(0.25)).abs() < 1e-6);
-        assert!(
-            (at(0.0) - 0.5).abs() < 1e-6,
-            "wraps between last and first texel"
-        );
+        assert!((at(0.0) - 0.5).abs() < 1e-6, "wraps between last and first texel");
     }
 }

@@ -92,9 +92,9 @@ pub fn oracle(p: &SolverParams, g: &Gathered, predicted: Vec3, mean_direct: Vec3
 /// Pull-down `Σ_p B_p(x_c) v_p` (paper §5, Fig. 4).
 #[inline]
 pub fn pull_down(h: &Hierarchy, values: &[Vec4], c: usize) -> Vec4 {
-    h.parents_of(c).iter().fold(Vec4::ZERO, |acc, q| {
-        acc + values[q.node as usize] * q.weight
-    })
+    h.parents_of(c)
+        .iter()
+        .fold(Vec4::ZERO, |acc, q| acc + values[q.node as usize] * q.weight)
 }
 
 /// The CPU backend's state.
@@ -134,13 +134,20 @@ impl<'a> CpuBackend<'a> {
         }
     }
 
+    /// Per-node state: (direct, unshot, next, indirect), for checks against the GPU.
+    pub fn state(&self) -> (&[Vec4], &[Vec4], &[Vec4], &[Vec4]) {
+        (&self.direct, &self.unshot, &self.next, &self.indirect)
+    }
+
+    /// The gathered value of node `j` in the last gather of its level.
+    pub fn gathered(&self, j: usize) -> Option<Gathered> {
+        self.is_active[j].then_some(self.gathered[j])
+    }
+
     /// The active nodes of `level`.
     fn active_list(&self, level: u32) -> Vec<u32> {
         if level <= 1 {
-            self.h
-                .level_range(level as usize)
-                .map(|j| j as u32)
-                .collect()
+            self.h.level_range(level as usize).map(|j| j as u32).collect()
         } else {
             self.active.clone()
         }
@@ -221,11 +228,8 @@ impl Backend for CpuBackend<'_> {
 
     fn gather(&mut self, level: u32) -> Result<u32> {
         let list = self.active_list(level);
-        let (scene, h, p, halton, unshot) =
-            (self.scene, self.h, &self.p, &self.halton, &self.unshot);
-        let bar = self
-            .progress
-            .bar(list.len() as u64, &format!("level {level}"));
+        let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
+        let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
         let results: Vec<Gathered> = list
             .par_iter()
             .map(|&j| {
@@ -257,14 +261,8 @@ impl Backend for CpuBackend<'_> {
                 }
                 let pred = self.predict(j);
                 match (active, delta) {
-                    (true, false) => (
-                        g.mean.extend(0.0),
-                        oracle(&self.p, g, pred, self.mean_direct),
-                    ),
-                    (true, true) => (
-                        (g.mean - pred).extend(0.0),
-                        oracle(&self.p, g, pred, self.mean_direct),
-                    ),
+                    (true, false) => (g.mean.extend(0.0), oracle(&self.p, g, pred, self.mean_direct)),
+                    (true, true) => ((g.mean - pred).extend(0.0), oracle(&self.p, g, pred, self.mean_direct)),
                     (false, false) => (pred.extend(0.0), false),
                     (false, true) => (Vec4::ZERO, false),
                 }

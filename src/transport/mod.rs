@@ -17,7 +17,7 @@ use crate::error::Result;
 use crate::geom::transform::xform_point;
 use crate::geom::transform::xform_vector;
 use crate::hierarchy::Hierarchy;
-use crate::params::Variant;
+use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -113,29 +113,10 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
     let t = Instant::now();
     backend.init_unshot()?;
     stats.seconds_init = t.elapsed().as_secs_f64();
-    let g = p.gather_levels;
     let all = Instant::now();
     for k in 1..=p.bounces {
         progress.stage(&format!("bounce {k}/{}", p.bounces));
-        let t = Instant::now();
-        let mut b = BounceStats {
-            bounce: k,
-            ..Default::default()
-        };
-        for l in 0..g {
-            let n = backend.gather(l)?;
-            b.integrals_per_level.push(n);
-            let refined = backend.refine(l, l >= 1 && l + 1 < g)?;
-            b.refined_per_level.push(refined);
-        }
-        backend.fill(g)?;
-        let e = backend.end_bounce()?;
-        b.seconds = t.elapsed().as_secs_f64();
-        b.unshot_ratio = if e.direct > 0.0 {
-            e.unshot / e.direct
-        } else {
-            0.0
-        };
+        let b = bounce(backend, p, k)?;
         let integrals: u64 = b.integrals_per_level.iter().map(|&n| n as u64).sum();
         stats.integrals += integrals;
         stats.rays_traced += integrals * p.rays as u64;
@@ -159,16 +140,29 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
     })
 }
 
+/// One bounce: gather levels `0..G` breadth-first with the oracle between them, fill the
+/// finer levels, accumulate.
+pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<BounceStats> {
+    let t = Instant::now();
+    let g = p.gather_levels;
+    let mut b = BounceStats {
+        bounce: k,
+        ..Default::default()
+    };
+    for l in 0..g {
+        b.integrals_per_level.push(backend.gather(l)?);
+        b.refined_per_level.push(backend.refine(l, l >= 1 && l + 1 < g)?);
+    }
+    backend.fill(g)?;
+    let e = backend.end_bounce()?;
+    b.seconds = t.elapsed().as_secs_f64();
+    b.unshot_ratio = if e.direct > 0.0 { e.unshot / e.direct } else { 0.0 };
+    Ok(b)
+}
+
 impl Solution {
     /// Indirect irradiance at an object-space surface point of object `o`.
-    pub fn indirect_on(
-        &self,
-        h: &Hierarchy,
-        o: usize,
-        p_obj: Vec3,
-        n_obj: Vec3,
-        level: u32,
-    ) -> Vec3 {
+    pub fn indirect_on(&self, h: &Hierarchy, o: usize, p_obj: Vec3, n_obj: Vec3, level: u32) -> Vec3 {
         reconstruct::output(
             h,
             self.variant.is_delta(),
@@ -195,12 +189,7 @@ impl Solution {
             let best = local
                 .iter()
                 .enumerate()
-                .map(|(o, &(p, nn))| {
-                    (
-                        o,
-                        reconstruct::shepard_sums(h, o, l, p, nn, &self.values.indirect).1,
-                    )
-                })
+                .map(|(o, &(p, nn))| (o, reconstruct::shepard_sums(h, o, l, p, nn, &self.values.indirect).1))
                 .filter(|&(_, w)| w > 0.0)
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((o, _)) = best {

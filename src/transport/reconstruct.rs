@@ -10,14 +10,7 @@ use crate::params::Variant;
 
 /// `Σ_j w_j(p) v_j` and `Σ_j w_j(p)` over level `l` of object `o`.
 #[inline]
-pub fn shepard_sums(
-    h: &Hierarchy,
-    o: usize,
-    l: usize,
-    p: Vec3,
-    n: Vec3,
-    values: &[Vec4],
-) -> (Vec3, f32) {
+pub fn shepard_sums(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4]) -> (Vec3, f32) {
     let mut sum = Vec3::ZERO;
     let mut wsum = 0.0;
     h.for_each_weight(o, l, p, n, |j, w| {
@@ -54,19 +47,10 @@ pub fn delta_sum(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[
 /// Approximate: the value of the first kd-tree leaf near `p` with an agreeing normal,
 /// falling back to coarser levels.
 #[inline]
-pub fn approx(
-    h: &Hierarchy,
-    o: usize,
-    l: usize,
-    p: Vec3,
-    n: Vec3,
-    values: &[Vec4],
-    cos_min: f32,
-) -> Option<Vec3> {
+pub fn approx(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4], cos_min: f32) -> Option<Vec3> {
     (0..=l).rev().find_map(|k| {
         let (nodes, splits, base) = h.level(o, k);
-        kdtree::first_leaf(nodes, splits, p, n, h.support(o, k), cos_min)
-            .map(|i| values[base + i].xyz())
+        kdtree::first_leaf(nodes, splits, p, n, h.support(o, k), cos_min).map(|i| values[base + i].xyz())
     })
 }
 
@@ -95,9 +79,7 @@ impl Sender {
         match self.variant {
             Variant::Original => delta_sum(h, o, self.level, p, n, values),
             Variant::Modified => exact(h, o, self.level, p, n, values).unwrap_or(Vec3::ZERO),
-            Variant::Approx => {
-                approx(h, o, self.level, p, n, values, self.cos_min).unwrap_or(Vec3::ZERO)
-            }
+            Variant::Approx => approx(h, o, self.level, p, n, values, self.cos_min).unwrap_or(Vec3::ZERO),
         }
     }
 }
@@ -107,15 +89,7 @@ impl Sender {
 /// below zero next to a discontinuity (e.g. a surface in a thin unlit gap): the raw value
 /// is returned and the caller clamps and counts.
 #[inline]
-pub fn output(
-    h: &Hierarchy,
-    delta: bool,
-    o: usize,
-    l: usize,
-    p: Vec3,
-    n: Vec3,
-    values: &[Vec4],
-) -> Vec3 {
+pub fn output(h: &Hierarchy, delta: bool, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4]) -> Vec3 {
     if delta {
         delta_sum(h, o, l, p, n, values)
     } else {

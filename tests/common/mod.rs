@@ -3,7 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
-use meshrad::cli::{run_solver, BackendChoice};
+use meshrad::cli::run_solver;
 use meshrad::progress::Progress;
 use meshrad::{Hierarchy, Scene, Solution};
 
@@ -26,15 +26,13 @@ pub fn load(path: &Path, overrides: &[(&str, &str)]) -> Scene {
 
 /// Hierarchy and CPU solution of a scene.
 pub fn solve_cpu(scene: &Scene) -> (Hierarchy, Solution) {
-    let (h, s, _, _) = run_solver(scene, BackendChoice::Cpu, &Progress::hidden()).expect("solve");
-    (h, s)
+    let r = run_solver(scene, None, &Progress::hidden()).expect("solve");
+    (r.hierarchy, r.solution)
 }
 
 /// Path of a file under ../shared/scenes.
 pub fn shared_scene(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/scenes")
-        .join(rel)
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes").join(rel)
 }
 
 /// Relative error.

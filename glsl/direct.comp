@@ -1,0 +1,20 @@
+// Kernel `direct`: exact direct irradiance at nodes `first .. first + count` by shadow
+// rays (ALGORITHM.md §2). CPU twin: transport::cpu::direct_at_node.
+#version 460
+#include "surface.glsl"
+
+layout(local_size_x = LINEAR_GROUP) in;
+
+void main() {
+    uint id = linear_id();
+    if (id >= pc.count) {
+        return;
+    }
+    GlobalsRef g = pc.g;
+    uint j = pc.first + id;
+    Node nd = g.nodes.v[j];
+    ObjectInfo ob = g.objects.v[nd.object];
+    vec3 x = xform_point(ob.to_world, nd.pos);
+    vec3 n = normalize(xform_vector(ob.to_world, nd.normal));
+    g.direct.v[j] = vec4(direct_at(g, x, n), 0.0);
+}

@@ -1,0 +1,32 @@
+// Kernel `hemisphere`: the gathering rays of one batch of integrals (paper §4.2): Halton
+// points mapped to the cosine-weighted hemisphere of the node, rotated about its normal
+// by the integral's random angle. Integral i of the batch is node `active[offset + i]`
+// (flag = 1) or `first + offset + i` (flag = 0, a whole level).
+// CPU twin: transport::cpu::gather_integral.
+#version 460
+#include "geometry.glsl"
+#include "sampling.glsl"
+
+layout(local_size_x = LINEAR_GROUP) in;
+
+void main() {
+    uint id = linear_id();
+    GlobalsRef g = pc.g;
+    uint n_rays = g.rays_per_integral;
+    if (id >= pc.count * n_rays) {
+        return;
+    }
+    uint i = id / n_rays;
+    uint r = id - i * n_rays;
+    uint j = pc.flag == 1u ? g.active_list.v[pc.offset + i] : pc.first + pc.offset + i;
+    Node nd = g.nodes.v[j];
+    ObjectInfo ob = g.objects.v[nd.object];
+    vec3 x = xform_point(ob.to_world, nd.pos);
+    vec3 n = normalize(xform_vector(ob.to_world, nd.normal));
+    vec3 o = offset_origin(x, n, g.scene_scale);
+    vec3 t;
+    vec3 b;
+    onb(n, t, b);
+    vec3 d = cosine_direction(n, t, b, g.halton.v[r], integral_rotation(g.seed, j));
+    g.rays.v[id] = Ray(vec4(o, 0.0), vec4(d, 0.0));
+}

@@ -1,0 +1,229 @@
+// Twin of src/geom/{ray,transform,bvh}.rs: transforms, the watertight ray–triangle test,
+// the scale-aware origin offset, BVH2 traversal.
+#ifndef GEOMETRY_GLSL
+#define GEOMETRY_GLSL
+
+#include "layout.glsl"
+
+// "No hit" distance. GLSL does not promise infinities, so a huge finite value stands in
+// for the CPU's f32::INFINITY; both are only compared.
+const float FAR = 3.0e38;
+
+// `precise` everywhere a hit point or ray is computed: no fused multiply-add, so the GPU
+// rounds as the CPU reference does (the approximate reconstruction's first kd leaf can
+// change with the last bit of a hit point lying on a split plane).
+vec3 xform_point(vec4 m[3], vec3 p) {
+    precise vec3 r = vec3(m[0].x * p.x + m[0].y * p.y + m[0].z * p.z + m[0].w,
+                          m[1].x * p.x + m[1].y * p.y + m[1].z * p.z + m[1].w,
+                          m[2].x * p.x + m[2].y * p.y + m[2].z * p.z + m[2].w);
+    return r;
+}
+
+vec3 xform_vector(vec4 m[3], vec3 v) {
+    precise vec3 r = vec3(m[0].x * v.x + m[0].y * v.y + m[0].z * v.z,
+                          m[1].x * v.x + m[1].y * v.y + m[1].z * v.z,
+                          m[2].x * v.x + m[2].y * v.y + m[2].z * v.z);
+    return r;
+}
+
+vec3 tri_normal(Tri t) {
+    vec3 c = cross(t.v1 - t.v0, t.v2 - t.v0);
+    float l = length(c);
+    return l > 0.0 ? c / l : vec3(0.0);
+}
+
+vec3 tri_point(Tri t, float b1, float b2) {
+    precise vec3 p = t.v0 + (t.v1 - t.v0) * b1 + (t.v2 - t.v0) * b2;
+    return p;
+}
+
+vec3 offset_origin(vec3 p, vec3 n, float scale) {
+    float near_ = scale * (1.0 / 32.0);
+    float fine = scale * (1.0 / 524288.0);
+    vec3 o;
+    for (int i = 0; i < 3; i++) {
+        int of = int(256.0 * n[i]);
+        int bits = floatBitsToInt(p[i]);
+        float moved = intBitsToFloat(bits + (p[i] < 0.0 ? -of : of));
+        o[i] = abs(p[i]) < near_ ? p[i] + fine * n[i] : moved;
+    }
+    return o;
+}
+
+vec3 safe_inverse(vec3 d) {
+    vec3 r;
+    for (int i = 0; i < 3; i++) {
+        r[i] = abs(d[i]) < 1e-30 ? (d[i] < 0.0 ? -1e30 : 1e30) : 1.0 / d[i];
+    }
+    return r;
+}
+
+// Per-ray constants of the watertight test (Woop, Benthin & Wald 2013).
+struct WRay { vec3 o; int kx; int ky; int kz; vec3 s; };
+
+WRay watertight_ray(vec3 o, vec3 d) {
+    vec3 a = abs(d);
+    int kz = a.x > a.y ? (a.x > a.z ? 0 : 2) : (a.y > a.z ? 1 : 2);
+    int kx = (kz + 1) % 3;
+    int ky = (kx + 1) % 3;
+    if (d[kz] < 0.0) {
+        int t = kx;
+        kx = ky;
+        ky = t;
+    }
+    WRay w;
+    w.o = o;
+    w.kx = kx;
+    w.ky = ky;
+    w.kz = kz;
+    w.s = vec3(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
+    return w;
+}
+
+// Returns true and (t, b1, b2) when the ray hits `tri` in (0, tmax).
+bool intersect_tri(WRay w, Tri tri, float tmax, out vec3 tuv) {
+    precise vec3 a = tri.v0 - w.o;
+    precise vec3 b = tri.v1 - w.o;
+    precise vec3 c = tri.v2 - w.o;
+    precise float ax = a[w.kx] - w.s.x * a[w.kz];
+    precise float ay = a[w.ky] - w.s.y * a[w.kz];
+    precise float bx = b[w.kx] - w.s.x * b[w.kz];
+    precise float by = b[w.ky] - w.s.y * b[w.kz];
+    precise float cx = c[w.kx] - w.s.x * c[w.kz];
+    precise float cy = c[w.ky] - w.s.y * c[w.kz];
+    precise float u = cx * by - cy * bx;
+    precise float v = ax * cy - ay * cx;
+    precise float ww = bx * ay - by * ax;
+    if ((u < 0.0 || v < 0.0 || ww < 0.0) && (u > 0.0 || v > 0.0 || ww > 0.0)) {
+        return false;
+    }
+    precise float det = u + v + ww;
+    if (det == 0.0) {
+        return false;
+    }
+    precise float az = w.s.z * a[w.kz];
+    precise float bz = w.s.z * b[w.kz];
+    precise float cz = w.s.z * c[w.kz];
+    precise float t = (u * az + v * bz + ww * cz) / det;
+    if (!(t > 0.0 && t < tmax)) {
+        return false;
+    }
+    tuv = vec3(t, v / det, ww / det);
+    return true;
+}
+
+float slab(BvhNode n, vec3 o, vec3 inv, float tmax) {
+    vec3 t0 = (n.lo - o) * inv;
+    vec3 t1 = (n.hi - o) * inv;
+    vec3 mn = min(t0, t1);
+    vec3 mx = max(t0, t1);
+    float tnear = max(max(max(mn.x, mn.y), mn.z), 0.0);
+    float tfar = min(min(mx.x, mx.y), mx.z) * 1.0000004;
+    return (tnear <= tfar && tnear < tmax) ? tnear : FAR;
+}
+
+// Closest (or with `any`, first) hit of an object-space ray in the BVH at `root`.
+// On a hit, `tri` holds the global triangle index and `tuv` (t, b1, b2); tmax shrinks.
+bool trace_bvh(BvhRef bvh, TriRef tris, uint root, vec3 o, vec3 d, inout float tmax, bool any_hit,
+               out uint tri, out vec3 tuv) {
+    vec3 inv = safe_inverse(d);
+    WRay w = watertight_ray(o, d);
+    bool found = false;
+    tri = NONE;
+    tuv = vec3(0.0);
+    uint stack[BVH_STACK];
+    uint sp = 0u;
+    if (slab(bvh.v[root], o, inv, tmax) >= FAR) {
+        return false;
+    }
+    uint cur = root;
+    while (true) {
+        BvhNode n = bvh.v[cur];
+        bool descended = false;
+        if (n.prim_count > 0u) {
+            for (uint i = n.first_index; i < n.first_index + n.prim_count; i++) {
+                vec3 h;
+                if (intersect_tri(w, tris.v[i], tmax, h)) {
+                    tmax = h.x;
+                    tuv = h;
+                    tri = i;
+                    found = true;
+                    if (any_hit) {
+                        return true;
+                    }
+                }
+            }
+        } else {
+            uint a = n.first_index;
+            float ta = slab(bvh.v[a], o, inv, tmax);
+            float tb = slab(bvh.v[a + 1u], o, inv, tmax);
+            uint near_ = ta <= tb ? a : a + 1u;
+            uint far_ = ta <= tb ? a + 1u : a;
+            float tn = min(ta, tb);
+            float tf = max(ta, tb);
+            if (tn < FAR) {
+                if (tf < FAR) {
+                    stack[sp] = far_;
+                    sp++;
+                }
+                cur = near_;
+                descended = true;
+            }
+        }
+        if (!descended) {
+            bool popped = false;
+            while (sp > 0u) {
+                sp--;
+                cur = stack[sp];
+                if (slab(bvh.v[cur], o, inv, tmax) < FAR) {
+                    popped = true;
+                    break;
+                }
+            }
+            if (!popped) {
+                return found;
+            }
+        }
+    }
+    return found;
+}
+
+// Closest hit over all objects of a world-space ray. Returns the object or NONE.
+uint trace_scene(GlobalsRef g, vec3 o, vec3 d, float tmax, out uint tri, out vec3 tuv) {
+    uint object = NONE;
+    tri = NONE;
+    tuv = vec3(0.0);
+    ObjectRef objects = g.objects;
+    for (uint k = 0u; k < g.num_objects; k++) {
+        ObjectInfo ob = objects.v[k];
+        vec3 oo = xform_point(ob.to_object, o);
+        vec3 od = xform_vector(ob.to_object, d);
+        uint t;
+        vec3 h;
+        if (trace_bvh(g.bvh, g.tris, ob.bvh_offset, oo, od, tmax, false, t, h)) {
+            object = k;
+            tri = t;
+            tuv = h;
+        }
+    }
+    return object;
+}
+
+// Whether anything blocks a world-space ray in (0, tmax).
+bool occluded_scene(GlobalsRef g, vec3 o, vec3 d, float tmax) {
+    ObjectRef objects = g.objects;
+    for (uint k = 0u; k < g.num_objects; k++) {
+        ObjectInfo ob = objects.v[k];
+        vec3 oo = xform_point(ob.to_object, o);
+        vec3 od = xform_vector(ob.to_object, d);
+        uint t;
+        vec3 h;
+        float tm = tmax;
+        if (trace_bvh(g.bvh, g.tris, ob.bvh_offset, oo, od, tm, true, t, h)) {
+            return true;
+        }
+    }
+    return false;
+}
+
+#endif

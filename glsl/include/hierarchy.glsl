@@ -1,0 +1,153 @@
+// Twin of src/hierarchy/{weight,kdtree}.rs and src/transport/reconstruct.rs: the Shepard
+// weight, stackful kd-tree range search, the first-leaf approximation, and the three
+// reconstructions.
+#ifndef HIERARCHY_GLSL
+#define HIERARCHY_GLSL
+
+#include "layout.glsl"
+
+float node_weight(vec3 p, vec3 n, vec3 xj, vec3 nj, float h, float alpha) {
+    float d = length(p - xj) / h + alpha * (1.0 - dot(n, nj));
+    if (d >= 1.0) {
+        return 0.0;
+    }
+    float q = 1.0 - d * d;
+    return q * q * q;
+}
+
+// Σ w_j v_j (xyz) and Σ w_j (w) over level l of object `ob`.
+vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+    uint base = ob.level_start[l];
+    uint count = ob.level_count[l];
+    vec4 acc = vec4(0.0);
+    if (count == 0u) {
+        return acc;
+    }
+    float h = g.kappa * ob.radius[l];
+    float alpha = g.alpha;
+    float r2 = h * h;
+    NodeRef nodes = g.nodes;
+    KdSplitRef splits = g.splits;
+    uvec2 stack[KD_STACK];
+    uint sp = 1u;
+    stack[0] = uvec2(0u, count);
+    while (sp > 0u) {
+        sp--;
+        uint lo = stack[sp].x;
+        uint hi = stack[sp].y;
+        while (true) {
+            if (hi - lo == 1u) {
+                Node nd = nodes.v[base + lo];
+                vec3 dx = nd.pos - p;
+                if (dot(dx, dx) < r2) {
+                    float w = node_weight(p, n, nd.pos, nd.normal, h, alpha);
+                    if (w > 0.0) {
+                        acc += vec4(values.v[base + lo].xyz * w, w);
+                    }
+                }
+                break;
+            }
+            uint mid = (lo + hi) / 2u;
+            KdSplit s = splits.v[base + mid];
+            float d = p[s.dim] - s.value;
+            uvec2 near_ = d < 0.0 ? uvec2(lo, mid) : uvec2(mid, hi);
+            uvec2 far_ = d < 0.0 ? uvec2(mid, hi) : uvec2(lo, mid);
+            if (abs(d) < h) {
+                stack[sp] = far_;
+                sp++;
+            }
+            lo = near_.x;
+            hi = near_.y;
+        }
+    }
+    return acc;
+}
+
+// First kd leaf near p within the support whose normal agrees (n · n_j > cos_min);
+// returns its local index or NONE. (No early return from inside the loops: lavapipe's
+// compiler mishandled that form.)
+uint first_leaf(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, float cos_min) {
+    uint base = ob.level_start[l];
+    uint count = ob.level_count[l];
+    float h = g.kappa * ob.radius[l];
+    float r2 = h * h;
+    NodeRef nodes = g.nodes;
+    KdSplitRef splits = g.splits;
+    uvec2 stack[KD_STACK];
+    uint sp = count > 0u ? 1u : 0u;
+    stack[0] = uvec2(0u, count);
+    uint found = NONE;
+    while (sp > 0u && found == NONE) {
+        sp--;
+        uint lo = stack[sp].x;
+        uint hi = stack[sp].y;
+        while (hi - lo > 1u) {
+            uint mid = (lo + hi) / 2u;
+            KdSplit s = splits.v[base + mid];
+            float d = p[s.dim] - s.value;
+            uvec2 near_ = d < 0.0 ? uvec2(lo, mid) : uvec2(mid, hi);
+            uvec2 far_ = d < 0.0 ? uvec2(mid, hi) : uvec2(lo, mid);
+            if (abs(d) < h) {
+                stack[sp] = far_;
+                sp++;
+            }
+            lo = near_.x;
+            hi = near_.y;
+        }
+        Node nd = nodes.v[base + lo];
+        vec3 dx = nd.pos - p;
+        if (dot(dx, dx) < r2 && dot(n, nd.normal) > cos_min) {
+            found = lo;
+        }
+    }
+    return found;
+}
+
+// Exact Shepard value on level l, falling back to coarser levels on a hole (0 if none).
+vec3 recon_exact(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+    for (int k = int(l); k >= 0; k--) {
+        vec4 s = shepard_sums(g, ob, uint(k), p, n, values);
+        if (s.w > 0.0) {
+            return s.xyz / s.w;
+        }
+    }
+    return vec3(0.0);
+}
+
+// F_l(p) = Σ_{k ≤ l} Σ_j α_j^k B_j^k(p) of the delta hierarchy.
+vec3 recon_delta(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+    vec3 acc = vec3(0.0);
+    for (uint k = 0u; k <= l; k++) {
+        vec4 s = shepard_sums(g, ob, k, p, n, values);
+        if (s.w > 0.0) {
+            acc += s.xyz / s.w;
+        }
+    }
+    return acc;
+}
+
+// First-leaf approximation, falling back to coarser levels (0 if none).
+vec3 recon_approx(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+    vec3 v = vec3(0.0);
+    bool done = false;
+    for (int k = int(l); k >= 0 && !done; k--) {
+        uint i = first_leaf(g, ob, uint(k), p, n, g.approx_cos);
+        if (i != NONE) {
+            v = values.v[ob.level_start[k] + i].xyz;
+            done = true;
+        }
+    }
+    return v;
+}
+
+// What the transport reads at a hit point (the variant is a specialization constant).
+vec3 recon_sender(GlobalsRef g, ObjectInfo ob, vec3 p, vec3 n, Vec4Ref values) {
+    if (VARIANT == VARIANT_ORIGINAL) {
+        return recon_delta(g, ob, g.sender_level, p, n, values);
+    } else if (VARIANT == VARIANT_APPROX) {
+        return recon_approx(g, ob, g.sender_level, p, n, values);
+    }
+    return recon_exact(g, ob, g.sender_level, p, n, values);
+}
+
+#endif

@@ -1,0 +1,129 @@
+// Mirrors of the host structs in src/layout.rs and src/gpu/globals.rs, by name.
+// Every buffer is reached through its device address (GL_EXT_buffer_reference): no
+// descriptor sets, and no per-binding size limit (lavapipe's is 128 MiB).
+#ifndef LAYOUT_GLSL
+#define LAYOUT_GLSL
+
+#extension GL_EXT_buffer_reference : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+
+#include "constants.glsl"
+
+// Specialization constants, set per solve (src/gpu/pipeline.rs): the variant, and whether
+// any material is textured (texture sampling is compiled out otherwise).
+layout(constant_id = 0) const uint VARIANT = VARIANT_MODIFIED;
+layout(constant_id = 1) const bool TEXTURED = true;
+
+struct Tri { vec3 v0; uint material; vec3 v1; uint pad0; vec3 v2; uint pad1; };
+struct TriUv { float uv[6]; };
+struct Node { vec3 pos; uint level; vec3 normal; uint object; };
+struct KdSplit { float value; uint dim; };
+struct Parent { uint node; float weight; };
+struct Material { vec3 kd; uint texture; };
+struct TextureInfo { uint offset; uint width; uint height; uint pad; };
+struct GpuLight { vec3 position; uint kind; vec3 direction; float cutoff; vec3 power; float beam; };
+struct ObjectInfo {
+    vec4 to_object[3];
+    vec4 to_world[3];
+    float scale;
+    uint tri_offset;
+    uint tri_count;
+    uint bvh_offset;
+    uint level_start[MAX_LEVELS];
+    uint level_count[MAX_LEVELS];
+    float radius[MAX_LEVELS];
+};
+struct BvhNode { vec3 lo; float pad0; vec3 hi; float pad1; uint prim_count; uint first_index; uint meta1; uint meta2; };
+struct Ray { vec4 o; vec4 d; };
+struct HitRecord { uint object; uint tri; float b1; float b2; };
+
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer TriRef { Tri v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer TriUvRef { TriUv v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer NodeRef { Node v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer KdSplitRef { KdSplit v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer ParentRef { Parent v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer MaterialRef { Material v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer TextureInfoRef { TextureInfo v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer LightRef { GpuLight v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer ObjectRef { ObjectInfo v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer BvhRef { BvhNode v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer RayRef { Ray v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer HitRef { HitRecord v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Ref { vec4 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 8) buffer Vec2Ref { vec2 v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer FloatRef { float v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintRef { uint v[]; };
+
+// Everything a kernel can reach: src/gpu/globals.rs `Globals`.
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef {
+    TriRef tris;
+    TriUvRef uvs;
+    BvhRef bvh;
+    MaterialRef materials;
+    TextureInfoRef textures;
+    UintRef texels;
+    FloatRef srgb;
+    LightRef lights;
+    ObjectRef objects;
+    NodeRef nodes;
+    KdSplitRef splits;
+    UintRef parent_offset;
+    ParentRef parents;
+    UintRef child_offset;
+    UintRef children;
+    Vec2Ref halton;
+    Vec4Ref direct;
+    Vec4Ref unshot;
+    Vec4Ref next;
+    Vec4Ref indirect;
+    Vec4Ref pred;
+    Vec4Ref gathered_mean;
+    Vec4Ref gathered_err;
+    UintRef active_flag;
+    UintRef child_flag;
+    UintRef active_list;
+    UintRef counters;
+    RayRef rays;
+    HitRef hits;
+    Vec4Ref contrib;
+    FloatRef energy;
+    uint num_objects;
+    uint num_lights;
+    uint rays_per_integral;
+    uint seed;
+    float scene_scale;
+    float kappa;
+    float alpha;
+    float approx_cos;
+    float eps_rel;
+    float eps_abs;
+    float noise_z;
+    uint levels;
+    uint sender_level;
+    uint pad0;
+};
+
+// Per-dispatch parameters: src/gpu/globals.rs `Push`.
+layout(push_constant) uniform PushBlock {
+    GlobalsRef g;
+    uint first;   // first node (global index) of the range or level
+    uint count;   // elements (nodes or integrals) in this dispatch
+    uint offset;  // first integral of this batch within the level's active set
+    uint level;
+    uint flag;    // kernel-specific switch
+    uint aux;     // kernel-specific value
+} pc;
+
+// Linear invocation index over a 2-D grid of 1-D workgroups of LINEAR_GROUP threads
+// (grids may exceed 65535 groups). Not gl_WorkGroupSize: this file is included before a
+// kernel declares its local size, where glslang still takes it as 1.
+uint linear_id() {
+    return (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * LINEAR_GROUP + gl_LocalInvocationID.x;
+}
+
+// Linear workgroup index.
+uint group_id() {
+    return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
+}
+
+#endif

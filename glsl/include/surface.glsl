@@ -1,0 +1,129 @@
+// Twin of src/scene/{texture,light}.rs and Scene::{albedo, direct}: albedo at a surface
+// point, the lights' direct irradiance with shadow rays.
+#ifndef SURFACE_GLSL
+#define SURFACE_GLSL
+
+#include "geometry.glsl"
+#include "sampling.glsl"
+
+vec3 texel(GlobalsRef g, TextureInfo info, int x, int y) {
+    int w = int(info.width);
+    int h = int(info.height);
+    uint xw = uint(x < 0 ? x + w : (x >= w ? x - w : x));
+    uint yw = uint(y < 0 ? y + h : (y >= h ? y - h : y));
+    uint p = g.texels.v[info.offset + yw * info.width + xw];
+    FloatRef lut = g.srgb;
+    return vec3(lut.v[p & 0xffu], lut.v[(p >> 8u) & 0xffu], lut.v[(p >> 16u) & 0xffu]);
+}
+
+vec3 sample_texture(GlobalsRef g, TextureInfo info, vec2 uv) {
+    // Repeat: wrap uv into [0, 1) first, so texel indices stay within one period.
+    float x = (uv.x - floor(uv.x)) * float(info.width) - 0.5;
+    float y = (1.0 - (uv.y - floor(uv.y))) * float(info.height) - 0.5;
+    float fx = floor(x);
+    float fy = floor(y);
+    float tx = x - fx;
+    float ty = y - fy;
+    int ix = int(fx);
+    int iy = int(fy);
+    vec3 a = texel(g, info, ix, iy);
+    vec3 b = texel(g, info, ix + 1, iy);
+    vec3 c = texel(g, info, ix, iy + 1);
+    vec3 d = texel(g, info, ix + 1, iy + 1);
+    return (a * (1.0 - tx) + b * tx) * (1.0 - ty) + (c * (1.0 - tx) + d * tx) * ty;
+}
+
+// Albedo at barycentrics (b1, b2) of global triangle `t`.
+vec3 albedo(GlobalsRef g, uint t, Tri tri, float b1, float b2) {
+    Material m = g.materials.v[tri.material];
+    if (!TEXTURED || m.texture == NONE) {
+        return m.kd;
+    }
+    TriUv uv = g.uvs.v[t];
+    float b0 = 1.0 - b1 - b2;
+    vec2 u = vec2(uv.uv[0] * b0 + uv.uv[2] * b1 + uv.uv[4] * b2, uv.uv[1] * b0 + uv.uv[3] * b1 + uv.uv[5] * b2);
+    return m.kd * sample_texture(g, g.textures.v[m.texture], u);
+}
+
+// acos by Abramowitz & Stegun 4.4.46: twin of light::acos_as (drivers' acos is coarse).
+float acos_as(float x) {
+    float a = min(abs(x), 1.0);
+    precise float p = -0.0012624911;
+    p = p * a + 0.0066700901;
+    p = p * a - 0.0170881256;
+    p = p * a + 0.0308918810;
+    p = p * a - 0.0501743046;
+    p = p * a + 0.0889789874;
+    p = p * a - 0.2145988016;
+    p = p * a + 1.5707963050;
+    precise float r = sqrt(1.0 - a) * p;
+    return x < 0.0 ? PI - r : r;
+}
+
+float spot_falloff(float theta, float beam, float cutoff) {
+    if (theta <= beam) {
+        return 1.0;
+    }
+    if (theta >= cutoff) {
+        return 0.0;
+    }
+    return (cutoff - theta) / (cutoff - beam);
+}
+
+// Unoccluded irradiance of light `l` at (x, n) and its shadow ray from `o`.
+bool light_sample(GpuLight l, vec3 x, vec3 n, vec3 o, out vec3 e, out vec3 to_light, out float tmax) {
+    e = vec3(0.0);
+    to_light = vec3(0.0);
+    tmax = 0.0;
+    if (l.kind == LIGHT_DIRECTIONAL) {
+        vec3 w = -l.direction;
+        float c = dot(n, w);
+        if (c <= 0.0) {
+            return false;
+        }
+        e = l.power * c;
+        to_light = w;
+        tmax = FAR;
+        return true;
+    }
+    vec3 v = l.position - x;
+    float d2 = dot(v, v);
+    if (d2 <= 0.0) {
+        return false;
+    }
+    vec3 w = v / sqrt(d2);
+    float c = dot(n, w);
+    if (c <= 0.0) {
+        return false;
+    }
+    e = l.power * (c / d2);
+    if (l.kind == LIGHT_SPOT) {
+        float cos_t = clamp(dot(l.direction, -w), -1.0, 1.0);
+        float f = spot_falloff(acos_as(cos_t), l.beam, l.cutoff);
+        if (f <= 0.0) {
+            return false;
+        }
+        e *= f;
+    }
+    to_light = l.position - o;
+    tmax = 0.9999;
+    return true;
+}
+
+// Exact direct irradiance at a world-space point (x, n): every light, with a shadow ray.
+vec3 direct_at(GlobalsRef g, vec3 x, vec3 n) {
+    vec3 o = offset_origin(x, n, g.scene_scale);
+    vec3 e = vec3(0.0);
+    LightRef lights = g.lights;
+    for (uint i = 0u; i < g.num_lights; i++) {
+        vec3 el;
+        vec3 tl;
+        float tm;
+        if (light_sample(lights.v[i], x, n, o, el, tl, tm) && !occluded_scene(g, o, tl, tm)) {
+            e += el;
+        }
+    }
+    return e;
+}
+
+#endif

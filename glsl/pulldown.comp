@@ -1,0 +1,30 @@
+// Kernel `pulldown`: v_c = Σ_p B_p(x_c) v_p over the parents of nodes first .. first+count
+// (paper §5, Fig. 4), from `next`, into `pred` (flag = 0: the oracle's prediction) or into
+// `next` (flag = 1: filling a level without integrals). CPU twin: transport::cpu::pull_down.
+#version 460
+#include "layout.glsl"
+
+layout(local_size_x = LINEAR_GROUP) in;
+
+void main() {
+    uint id = linear_id();
+    if (id >= pc.count) {
+        return;
+    }
+    GlobalsRef g = pc.g;
+    uint c = pc.first + id;
+    uint a = g.parent_offset.v[c];
+    uint b = g.parent_offset.v[c + 1u];
+    ParentRef parents = g.parents;
+    Vec4Ref next = g.next;
+    vec4 v = vec4(0.0);
+    for (uint k = a; k < b; k++) {
+        Parent p = parents.v[k];
+        v += next.v[p.node] * p.weight;
+    }
+    if (pc.flag == 1u) {
+        next.v[c] = v;
+    } else {
+        g.pred.v[c] = v;
+    }
+}

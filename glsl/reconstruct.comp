@@ -1,0 +1,31 @@
+// Kernel `reconstruct`: the un-shot irradiance at each hit point, read from the sender
+// level by the variant's reconstruction (exact Shepard, delta sum, or first kd leaf),
+// times the albedo there: one Monte Carlo sample `ρ(y) ΔE(y)` per ray.
+// CPU twin: the loop body of transport::cpu::gather_integral.
+#version 460
+#include "surface.glsl"
+#include "hierarchy.glsl"
+
+layout(local_size_x = LINEAR_GROUP) in;
+
+void main() {
+    uint id = linear_id();
+    GlobalsRef g = pc.g;
+    if (id >= pc.count * g.rays_per_integral) {
+        return;
+    }
+    HitRecord h = g.hits.v[id];
+    vec3 c = vec3(0.0);
+    if (h.object != NONE) {
+        ObjectInfo ob = g.objects.v[h.object];
+        Tri tri = g.tris.v[h.tri];
+        vec3 p = tri_point(tri, h.b1, h.b2);
+        vec3 n = tri_normal(tri);
+        vec3 d = xform_vector(ob.to_object, g.rays.v[id].d.xyz);
+        if (dot(n, d) > 0.0) {
+            n = -n;
+        }
+        c = albedo(g, h.tri, tri, h.b1, h.b2) * recon_sender(g, ob, p, n, g.unshot);
+    }
+    g.contrib.v[id] = vec4(c, 0.0);
+}

@@ -1,0 +1,19 @@
+// Kernel `trace`: closest hit of each gathering ray over all objects (rays go into each
+// object's space; one BVH2 per object). CPU twin: Scene::intersect.
+#version 460
+#include "geometry.glsl"
+
+layout(local_size_x = LINEAR_GROUP) in;
+
+void main() {
+    uint id = linear_id();
+    GlobalsRef g = pc.g;
+    if (id >= pc.count * g.rays_per_integral) {
+        return;
+    }
+    Ray ray = g.rays.v[id];
+    uint tri;
+    vec3 tuv;
+    uint object = trace_scene(g, ray.o.xyz, ray.d.xyz, FAR, tri, tuv);
+    g.hits.v[id] = HitRecord(object, tri, tuv.y, tuv.z);
+}

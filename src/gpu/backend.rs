@@ -1,0 +1,523 @@
+//! The GPU transport backend: the whole bounce loop on the device. The scene, the
+//! hierarchy and the per-node state are uploaded once and stay resident; rays, hits and
+//! samples live only on the device; between stages only counts come back.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use ash::vk;
+use glam::Vec4;
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::{barrier, compute_barrier, Buffer};
+use super::context::Context;
+use super::globals::{Globals, Push, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
+use super::kernels::Kernels;
+use super::pipeline::Specialization;
+use super::profiler::Profiler;
+use crate::constants::{VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL};
+use crate::error::{Error, Result};
+use crate::geom::sampling::halton_table;
+use crate::hierarchy::Hierarchy;
+use crate::params::{SolverParams, Variant};
+use crate::scene::Scene;
+use crate::transport::{Backend, Energy, NodeValues};
+
+/// The buffers of a solve.
+struct Buffers {
+    _scene: Vec<Buffer>,
+    globals: Buffer,
+    direct: Buffer,
+    unshot: Buffer,
+    next: Buffer,
+    indirect: Buffer,
+    active_flag: Buffer,
+    child_flag: Buffer,
+    counters: Buffer,
+    energy: Buffer,
+    _state: Vec<Buffer>,
+}
+
+/// Rays (origin, direction), hit records (object, triangle, b1 bits, b2 bits) and samples.
+pub type BatchReadback = (Vec<[Vec4; 2]>, Vec<[u32; 4]>, Vec<Vec4>);
+
+/// Per-node arrays that can be read back for checks.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum State {
+    Direct,
+    Unshot,
+    Next,
+    Indirect,
+    Pred,
+    GatheredMean,
+    GatheredErr,
+}
+
+/// What the backend did, beyond the transport's own statistics.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct GpuReport {
+    pub device: String,
+    pub driver: String,
+    pub api_version: String,
+    pub batch_integrals: u32,
+    pub bytes_uploaded: u64,
+    pub seconds_upload: f64,
+    pub seconds_pipelines: f64,
+    pub validation_errors: u32,
+    /// Kernels that were built but never dispatched in this solve.
+    pub kernels_never_dispatched: Vec<String>,
+}
+
+/// Vulkan compute backend.
+pub struct GpuBackend<'a> {
+    ctx: Arc<Context>,
+    h: &'a Hierarchy,
+    p: SolverParams,
+    k: Kernels,
+    prof: Profiler,
+    b: Buffers,
+    addr: u64,
+    batch: u32,
+    active_count: u32,
+    pub report: GpuReport,
+}
+
+fn vec4_bytes(n: usize) -> u64 {
+    (n * 16) as u64
+}
+
+impl<'a> GpuBackend<'a> {
+    /// Uploads the scene and hierarchy and builds the pipelines.
+    pub fn new(ctx: Arc<Context>, scene: &'a Scene, h: &'a Hierarchy) -> Result<GpuBackend<'a>> {
+        let p = scene.params.clone();
+        let t = Instant::now();
+        let spec = Specialization {
+            variant: match p.variant {
+                Variant::Original => VARIANT_ORIGINAL,
+                Variant::Modified => VARIANT_MODIFIED,
+                Variant::Approx => VARIANT_APPROX,
+            },
+            textured: scene.textured(),
+        };
+        let k = Kernels::new(&ctx, spec)?;
+        let seconds_pipelines = t.elapsed().as_secs_f64();
+
+        let t = Instant::now();
+        let n = h.nodes.len();
+        let max_level = (0..h.levels as usize)
+            .map(|l| h.level_range(l).len())
+            .max()
+            .unwrap_or(0);
+        let batch = batch_size(&ctx, &p);
+        let up = |name: &str, bytes: &[u8]| Buffer::upload(&ctx, name, bytes);
+        let objects = h.object_infos(scene);
+        let halton = halton_table(p.rays);
+        let scene_bufs = vec![
+            up("triangles", bytemuck::cast_slice(&scene.tris))?,
+            up("uvs", bytemuck::cast_slice(&scene.uvs))?,
+            up("bvh", bytemuck::cast_slice(&scene.bvh))?,
+            up("materials", bytemuck::cast_slice(&scene.materials))?,
+            up("textures", bytemuck::cast_slice(&scene.textures))?,
+            up("texels", bytemuck::cast_slice(&scene.texels))?,
+            up("srgb", bytemuck::cast_slice(&scene.srgb))?,
+            up("lights", bytemuck::cast_slice(&scene.lights))?,
+            up("objects", bytemuck::cast_slice(&objects))?,
+            up("nodes", bytemuck::cast_slice(&h.nodes))?,
+            up("kd splits", bytemuck::cast_slice(&h.splits))?,
+            up("parent offsets", bytemuck::cast_slice(&h.parent_offset))?,
+            up("parents", bytemuck::cast_slice(&h.parents))?,
+            up("child offsets", bytemuck::cast_slice(&h.child_offset))?,
+            up("children", bytemuck::cast_slice(&h.children))?,
+            up("halton", bytemuck::cast_slice(&halton))?,
+        ];
+        let bytes_uploaded = scene_bufs.iter().map(|b| b.size).sum();
+        let z = |name: &str, size: u64| Buffer::zeroed(&ctx, name, size);
+        let rays_in_flight = batch as u64 * p.rays as u64;
+        let state = vec![
+            z("pred", vec4_bytes(n))?,
+            z("gathered mean", vec4_bytes(n))?,
+            z("gathered error", vec4_bytes(n))?,
+            z("active", (max_level.max(1) * 4) as u64)?,
+            Buffer::new(&ctx, "rays", rays_in_flight * RAY_BYTES, MemoryLocation::GpuOnly)?,
+            Buffer::new(&ctx, "hits", rays_in_flight * HIT_BYTES, MemoryLocation::GpuOnly)?,
+            Buffer::new(&ctx, "samples", rays_in_flight * CONTRIB_BYTES, MemoryLocation::GpuOnly)?,
+        ];
+        let b = Buffers {
+            direct: z("direct", vec4_bytes(n))?,
+            unshot: z("unshot", vec4_bytes(n))?,
+            next: z("next", vec4_bytes(n))?,
+            indirect: z("indirect", vec4_bytes(n))?,
+            active_flag: z("active flags", (n * 4) as u64)?,
+            child_flag: z("child flags", (n * 4) as u64)?,
+            counters: z("counters", 16)?,
+            energy: z("energy", 32)?,
+            globals: Buffer::new(
+                &ctx,
+                "globals",
+                std::mem::size_of::<Globals>() as u64,
+                MemoryLocation::GpuOnly,
+            )?,
+            _scene: scene_bufs,
+            _state: state,
+        };
+        let s = &b._scene;
+        let st = &b._state;
+        let g = Globals {
+            tris: s[0].address,
+            uvs: s[1].address,
+            bvh: s[2].address,
+            materials: s[3].address,
+            textures: s[4].address,
+            texels: s[5].address,
+            srgb: s[6].address,
+            lights: s[7].address,
+            objects: s[8].address,
+            nodes: s[9].address,
+            splits: s[10].address,
+            parent_offset: s[11].address,
+            parents: s[12].address,
+            child_offset: s[13].address,
+            children: s[14].address,
+            halton: s[15].address,
+            direct: b.direct.address,
+            unshot: b.unshot.address,
+            next: b.next.address,
+            indirect: b.indirect.address,
+            pred: st[0].address,
+            gathered_mean: st[1].address,
+            gathered_err: st[2].address,
+            active_flag: b.active_flag.address,
+            child_flag: b.child_flag.address,
+            active_list: st[3].address,
+            counters: b.counters.address,
+            rays: st[4].address,
+            hits: st[5].address,
+            contrib: st[6].address,
+            energy: b.energy.address,
+            num_objects: scene.objects.len() as u32,
+            num_lights: scene.lights.len() as u32,
+            rays_per_integral: p.rays,
+            seed: p.seed,
+            scene_scale: scene.scale,
+            kappa: p.kappa,
+            alpha: p.alpha,
+            approx_cos: p.approx_cos,
+            eps_rel: p.eps_rel,
+            eps_abs: p.eps_abs,
+            noise_z: p.noise_z,
+            levels: p.levels,
+            sender_level: p.sender_level,
+            pad0: 0,
+        };
+        let staged = Buffer::upload(&ctx, "globals (staged)", bytemuck::bytes_of(&g))?;
+        ctx.run(|cmd| {
+            let region = [vk::BufferCopy::default().size(std::mem::size_of::<Globals>() as u64)];
+            // SAFETY: both buffers are valid and large enough.
+            unsafe {
+                ctx.device
+                    .cmd_copy_buffer(cmd, staged.buffer, b.globals.buffer, &region)
+            };
+            barrier(
+                &ctx,
+                cmd,
+                vk::PipelineStageFlags::TRANSFER,
+                vk::AccessFlags::TRANSFER_WRITE,
+            );
+            Ok(())
+        })?;
+        let addr = b.globals.address;
+        let report = GpuReport {
+            device: ctx.info.name.clone(),
+            driver: format!("{} {}", ctx.info.driver_name, ctx.info.driver_info),
+            api_version: ctx.info.api_version.clone(),
+            batch_integrals: batch,
+            bytes_uploaded,
+            seconds_upload: t.elapsed().as_secs_f64(),
+            seconds_pipelines,
+            ..Default::default()
+        };
+        Ok(GpuBackend {
+            prof: Profiler::new(&ctx)?,
+            ctx,
+            h,
+            p,
+            k,
+            b,
+            addr,
+            batch,
+            active_count: 0,
+            report,
+        })
+    }
+
+    fn push(&self, first: usize, count: usize) -> Push {
+        Push {
+            globals: self.addr,
+            first: first as u32,
+            count: count as u32,
+            ..Default::default()
+        }
+    }
+
+    /// Records `f` into one command buffer, submits it, waits, and collects timestamps.
+    fn submit(&mut self, f: impl FnOnce(&Kernels, &mut Profiler, vk::CommandBuffer, &Buffers, &Context)) -> Result<()> {
+        let (ctx, k, prof, b) = (&self.ctx, &self.k, &mut self.prof, &self.b);
+        ctx.run(|cmd| {
+            prof.begin_frame(cmd);
+            f(k, prof, cmd, b, ctx);
+            Ok(())
+        })?;
+        self.prof.end_frame()
+    }
+
+    /// Reads a per-node state array (tests and diagnostics).
+    pub fn read_state(&self, which: State) -> Result<Vec<Vec4>> {
+        let n = self.h.nodes.len();
+        let b = match which {
+            State::Direct => &self.b.direct,
+            State::Unshot => &self.b.unshot,
+            State::Next => &self.b.next,
+            State::Indirect => &self.b.indirect,
+            State::Pred => &self.b._state[0],
+            State::GatheredMean => &self.b._state[1],
+            State::GatheredErr => &self.b._state[2],
+        };
+        b.download(0, n)
+    }
+
+    /// Reads the first `n` rays (origin, direction), hits and samples of the last batch.
+    pub fn read_batch(&self, n: usize) -> Result<BatchReadback> {
+        Ok((
+            self.b._state[4].download(0, n)?,
+            self.b._state[5].download(0, n)?,
+            self.b._state[6].download(0, n)?,
+        ))
+    }
+
+    /// Validation errors so far (0 unless validation is on).
+    pub fn validation_errors(&self) -> u32 {
+        self.ctx.validation_errors()
+    }
+}
+
+/// Integrals in flight: the rays buffer gets at most an eighth of device memory, 512 MiB
+/// and the device's largest allocation (the paper: 1000 integrals = 512k rays on 1.5 GB).
+fn batch_size(ctx: &Context, p: &SolverParams) -> u32 {
+    if p.batch_integrals > 0 {
+        return p.batch_integrals;
+    }
+    let mut budget = (ctx.info.device_local_bytes / 8).min(512 << 20);
+    if ctx.info.max_allocation_bytes > 0 {
+        budget = budget.min(ctx.info.max_allocation_bytes);
+    }
+    (budget / (p.rays as u64 * RAY_BYTES)).clamp(1, 1 << 20) as u32
+}
+
+fn range_bytes(r: &std::ops::Range<usize>, elem: u64) -> (u64, u64) {
+    (r.start as u64 * elem, r.len() as u64 * elem)
+}
+
+impl Backend for GpuBackend<'_> {
+    fn name(&self) -> String {
+        format!("gpu ({})", self.ctx.info.name)
+    }
+
+    fn direct(&mut self) -> Result<()> {
+        let all = self.push(0, self.h.nodes.len());
+        let l0 = self.h.level_range(0);
+        let mut e = self.push(l0.start, l0.len());
+        e.flag = 1;
+        self.submit(|k, prof, cmd, _, ctx| {
+            k.direct.record(prof, cmd, &all);
+            compute_barrier(ctx, cmd);
+            k.energy.record(prof, cmd, &e);
+            compute_barrier(ctx, cmd);
+        })
+    }
+
+    fn init_unshot(&mut self) -> Result<()> {
+        let delta = self.p.variant.is_delta();
+        let levels: Vec<Push> = (0..self.h.levels as usize)
+            .map(|l| {
+                let r = self.h.level_range(l);
+                let mut p = self.push(r.start, r.len());
+                p.level = l as u32;
+                p.flag = 1;
+                p
+            })
+            .collect();
+        let n = vec4_bytes(self.h.nodes.len());
+        self.submit(|k, prof, cmd, b, ctx| {
+            b.indirect.fill(cmd, 0, b.indirect.size, 0);
+            if delta {
+                for p in &levels {
+                    k.delta.record(prof, cmd, p);
+                    compute_barrier(ctx, cmd);
+                }
+            } else {
+                let region = [vk::BufferCopy::default().size(n)];
+                // SAFETY: both buffers hold n bytes.
+                unsafe {
+                    ctx.device
+                        .cmd_copy_buffer(cmd, b.direct.buffer, b.unshot.buffer, &region)
+                };
+            }
+            compute_barrier(ctx, cmd);
+        })
+    }
+
+    fn gather(&mut self, level: u32) -> Result<u32> {
+        let range = self.h.level_range(level as usize);
+        let (count, listed) = if level <= 1 {
+            (range.len() as u32, false)
+        } else {
+            (self.active_count, true)
+        };
+        let batch = self.batch;
+        let base = self.push(range.start, 0);
+        let rays = self.p.rays;
+        let (off, size) = range_bytes(&range, 4);
+        self.submit(|k, prof, cmd, b, ctx| {
+            b.active_flag.fill(cmd, off, size, 0);
+            compute_barrier(ctx, cmd);
+            let mut offset = 0;
+            while offset < count {
+                let n = batch.min(count - offset);
+                let p = Push {
+                    count: n,
+                    offset,
+                    flag: listed as u32,
+                    aux: rays,
+                    ..base
+                };
+                k.hemisphere.record(prof, cmd, &p);
+                compute_barrier(ctx, cmd);
+                k.trace.record(prof, cmd, &p);
+                compute_barrier(ctx, cmd);
+                k.reconstruct.record(prof, cmd, &p);
+                compute_barrier(ctx, cmd);
+                k.reduce.record(prof, cmd, &p);
+                compute_barrier(ctx, cmd);
+                offset += n;
+            }
+        })?;
+        Ok(count)
+    }
+
+    fn refine(&mut self, level: u32, activate: bool) -> Result<u32> {
+        let l = level as usize;
+        let range = self.h.level_range(l);
+        let mut p = self.push(range.start, range.len());
+        p.level = level;
+        p.flag = activate as u32;
+        let next_range = if activate { self.h.level_range(l + 1) } else { 0..0 };
+        let cp = self.push(next_range.start, next_range.len());
+        let delta = self.p.variant.is_delta();
+        let (coff, csize) = range_bytes(&next_range, 4);
+        self.submit(|k, prof, cmd, b, ctx| {
+            b.counters.fill(cmd, 0, 16, 0);
+            if activate {
+                b.child_flag.fill(cmd, coff, csize, 0);
+            }
+            compute_barrier(ctx, cmd);
+            if level >= 1 {
+                let pred = Push { flag: 0, ..p };
+                if delta {
+                    k.delta.record(prof, cmd, &pred);
+                } else {
+                    k.pulldown.record(prof, cmd, &pred);
+                }
+                compute_barrier(ctx, cmd);
+            }
+            k.oracle.record(prof, cmd, &p);
+            compute_barrier(ctx, cmd);
+            if activate {
+                k.compact.record(prof, cmd, &cp);
+                compute_barrier(ctx, cmd);
+            }
+        })?;
+        let c: Vec<u32> = self.b.counters.download(0, 2)?;
+        if activate {
+            self.active_count = c[1];
+        }
+        Ok(c[0])
+    }
+
+    fn fill(&mut self, from: u32) -> Result<()> {
+        let delta = self.p.variant.is_delta();
+        let levels: Vec<(Push, std::ops::Range<usize>)> = (from as usize..self.h.levels as usize)
+            .map(|l| {
+                let r = self.h.level_range(l);
+                let mut p = self.push(r.start, r.len());
+                p.level = l as u32;
+                p.flag = 1;
+                (p, r)
+            })
+            .collect();
+        self.submit(|k, prof, cmd, b, ctx| {
+            for (p, r) in &levels {
+                if delta {
+                    let (off, size) = range_bytes(r, 16);
+                    b.next.fill(cmd, off, size, 0);
+                } else {
+                    k.pulldown.record(prof, cmd, p);
+                }
+                compute_barrier(ctx, cmd);
+            }
+        })
+    }
+
+    fn end_bounce(&mut self) -> Result<Energy> {
+        let all = self.push(0, self.h.nodes.len());
+        let l0 = self.h.level_range(0);
+        let e = self.push(l0.start, l0.len());
+        self.submit(|k, prof, cmd, _, ctx| {
+            k.accumulate.record(prof, cmd, &all);
+            compute_barrier(ctx, cmd);
+            k.energy.record(prof, cmd, &e);
+            compute_barrier(ctx, cmd);
+        })?;
+        let v: Vec<f32> = self.b.energy.download(0, 2)?;
+        Ok(Energy {
+            unshot: v[0] as f64,
+            direct: v[1] as f64,
+        })
+    }
+
+    fn values(&mut self) -> Result<NodeValues> {
+        let n = self.h.nodes.len();
+        let direct: Vec<Vec4> = self.b.direct.download(0, n)?;
+        let indirect: Vec<Vec4> = self.b.indirect.download(0, n)?;
+        self.report.validation_errors = self.ctx.validation_errors();
+        let used: Vec<&str> = self.prof.totals.keys().copied().collect();
+        self.report.kernels_never_dispatched = [
+            &self.k.direct,
+            &self.k.hemisphere,
+            &self.k.trace,
+            &self.k.reconstruct,
+            &self.k.reduce,
+            &self.k.pulldown,
+            &self.k.delta,
+            &self.k.oracle,
+            &self.k.compact,
+            &self.k.accumulate,
+            &self.k.energy,
+        ]
+        .iter()
+        .map(|l| l.kernel.name)
+        .filter(|name| !used.contains(name))
+        .map(String::from)
+        .collect();
+        if self.report.validation_errors > 0 {
+            return Err(Error::Gpu(format!(
+                "the validation layer reported {} error(s); see stderr",
+                self.report.validation_errors
+            )));
+        }
+        Ok(NodeValues { direct, indirect })
+    }
+
+    fn kernel_times(&mut self) -> Vec<(String, f64)> {
+        self.prof.totals.iter().map(|(k, (t, _))| (k.to_string(), *t)).collect()
+    }
+}

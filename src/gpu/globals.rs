@@ -1,0 +1,83 @@
+//! The two host/device parameter blocks of every kernel, mirrored by name in
+//! `glsl/include/layout.glsl`: `Globals` (device addresses of all buffers and the solve's
+//! scalars, written once) and `Push` (push constants per dispatch).
+
+use bytemuck::{Pod, Zeroable};
+
+/// Device addresses and scalars (the GLSL `GlobalsRef` block).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Globals {
+    pub tris: u64,
+    pub uvs: u64,
+    pub bvh: u64,
+    pub materials: u64,
+    pub textures: u64,
+    pub texels: u64,
+    pub srgb: u64,
+    pub lights: u64,
+    pub objects: u64,
+    pub nodes: u64,
+    pub splits: u64,
+    pub parent_offset: u64,
+    pub parents: u64,
+    pub child_offset: u64,
+    pub children: u64,
+    pub halton: u64,
+    pub direct: u64,
+    pub unshot: u64,
+    pub next: u64,
+    pub indirect: u64,
+    pub pred: u64,
+    pub gathered_mean: u64,
+    pub gathered_err: u64,
+    pub active_flag: u64,
+    pub child_flag: u64,
+    pub active_list: u64,
+    pub counters: u64,
+    pub rays: u64,
+    pub hits: u64,
+    pub contrib: u64,
+    pub energy: u64,
+    pub num_objects: u32,
+    pub num_lights: u32,
+    pub rays_per_integral: u32,
+    pub seed: u32,
+    pub scene_scale: f32,
+    pub kappa: f32,
+    pub alpha: f32,
+    pub approx_cos: f32,
+    pub eps_rel: f32,
+    pub eps_abs: f32,
+    pub noise_z: f32,
+    pub levels: u32,
+    pub sender_level: u32,
+    pub pad0: u32,
+}
+
+/// Push constants (the GLSL `PushBlock`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Push {
+    pub globals: u64,
+    pub first: u32,
+    pub count: u32,
+    pub offset: u32,
+    pub level: u32,
+    pub flag: u32,
+    pub aux: u32,
+}
+
+/// A ray as the kernels store it (32 bytes).
+pub const RAY_BYTES: u64 = 32;
+/// A hit record (16 bytes).
+pub const HIT_BYTES: u64 = 16;
+/// A Monte Carlo sample (vec4, 16 bytes).
+pub const CONTRIB_BYTES: u64 = 16;
+
+const _: () = {
+    assert!(std::mem::size_of::<Globals>() == 31 * 8 + 14 * 4);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 248);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 296);
+    assert!(std::mem::size_of::<Push>() == 32);
+};

@@ -1,0 +1,119 @@
+//! Compute pipelines from embedded SPIR-V. There are no descriptor sets: every kernel
+//! takes the same push-constant block (`Push`), whose first field is the address of the
+//! `Globals` block. The variant and texturing are specialization constants.
+
+use std::sync::Arc;
+
+use ash::vk;
+
+use super::context::Context;
+use super::globals::Push;
+use super::VkCheck;
+use crate::error::{Error, Result};
+
+/// Values of the specialization constants (ids 0 and 1 in `layout.glsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Specialization {
+    pub variant: u32,
+    pub textured: bool,
+}
+
+/// A compute pipeline.
+pub struct Kernel {
+    ctx: Arc<Context>,
+    pub name: &'static str,
+    pub pipeline: vk::Pipeline,
+    pub layout: vk::PipelineLayout,
+}
+
+impl Kernel {
+    /// Builds kernel `name` from its SPIR-V.
+    pub fn new(ctx: &Arc<Context>, name: &'static str, spirv: &[u8], spec: Specialization) -> Result<Kernel> {
+        let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
+            .map_err(|e| Error::Gpu(format!("kernel {name}: bad SPIR-V: {e}")))?;
+        let d = &ctx.device;
+        let module_info = vk::ShaderModuleCreateInfo::default().code(&code);
+        // SAFETY: valid device; the code is SPIR-V produced by glslc at build time.
+        let module = unsafe { d.create_shader_module(&module_info, None) }.vk("vkCreateShaderModule")?;
+        let ranges = [vk::PushConstantRange::default()
+            .stage_flags(vk::ShaderStageFlags::COMPUTE)
+            .offset(0)
+            .size(std::mem::size_of::<Push>() as u32)];
+        let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges);
+        // SAFETY: valid device.
+        let layout = match unsafe { d.create_pipeline_layout(&layout_info, None) } {
+            Ok(l) => l,
+            Err(r) => {
+                // SAFETY: the module is unused.
+                unsafe { d.destroy_shader_module(module, None) };
+                return Err(super::vk_err("vkCreatePipelineLayout", r));
+            }
+        };
+        let data: [u32; 2] = [spec.variant, spec.textured as u32];
+        let entries = [
+            vk::SpecializationMapEntry::default().constant_id(0).offset(0).size(4),
+            vk::SpecializationMapEntry::default().constant_id(1).offset(4).size(4),
+        ];
+        let spec_info = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(bytemuck::cast_slice(&data));
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main")
+            .specialization_info(&spec_info);
+        let info = [vk::ComputePipelineCreateInfo::default().stage(stage).layout(layout)];
+        // SAFETY: valid device, module and layout.
+        let pipeline = unsafe { d.create_compute_pipelines(vk::PipelineCache::null(), &info, None) };
+        // SAFETY: the module is no longer needed once the pipeline exists (or failed).
+        unsafe { d.destroy_shader_module(module, None) };
+        let pipeline = match pipeline {
+            Ok(p) => p[0],
+            Err((_, r)) => {
+                // SAFETY: the layout is unused.
+                unsafe { d.destroy_pipeline_layout(layout, None) };
+                return Err(super::vk_err(&format!("vkCreateComputePipelines ({name})"), r));
+            }
+        };
+        Ok(Kernel {
+            ctx: ctx.clone(),
+            name,
+            pipeline,
+            layout,
+        })
+    }
+
+    /// Records a dispatch of `groups` workgroups (laid out in 2-D when they exceed the
+    /// device's x limit) with push constants `push`.
+    pub fn dispatch(&self, cmd: vk::CommandBuffer, push: &Push, groups: u64) {
+        if groups == 0 {
+            return;
+        }
+        let max_x = self.ctx.info.max_workgroup_count_x.clamp(1, 65535) as u64;
+        let x = groups.min(max_x);
+        let y = groups.div_ceil(x);
+        let d = &self.ctx.device;
+        // SAFETY: recording state; the push range matches the layout.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(push),
+            );
+            d.cmd_dispatch(cmd, x as u32, y as u32, 1);
+        }
+    }
+}
+
+impl Drop for Kernel {
+    fn drop(&mut self) {
+        // SAFETY: no submission using the pipeline is pending (all are waited for).
+        unsafe {
+            self.ctx.device.destroy_pipeline(self.pipeline, None);
+            self.ctx.device.destroy_pipeline_layout(self.layout, None);
+        }
+    }
+}
