@@ -1,5 +1,6 @@
 // Kernel `direct`: exact direct irradiance at nodes `first .. first + count` by shadow
-// rays (ALGORITHM.md §2). CPU twin: transport::cpu::direct_at_node.
+// rays (ALGORITHM.md §2), counting per light the nodes it lights (counters[4 + i]).
+// CPU twin: transport::cpu::direct_at_node.
 #version 460
 #include "surface.glsl"
 
@@ -16,5 +17,5 @@ void main() {
     ObjectInfo ob = g.objects.v[nd.object];
     vec3 x = xform_point(ob.to_world, nd.pos);
     vec3 n = normalize(xform_vector(ob.to_world, nd.normal));
-    g.direct.v[j] = vec4(direct_at(g, x, n), 0.0);
+    g.direct.v[j] = vec4(direct_at(g, x, n, true), 0.0);
 }

@@ -53,3 +53,55 @@ fn point_light_over_plane() {
         assert_eq!(*ind, Vec3::ZERO);
     }
 }
+
+/// Work a scene does not need is skipped and reported: a spot light aimed away from all
+/// geometry, and levels whose parents were never refined (a lone plane has no indirect
+/// light, so the oracle refines nothing).
+#[test]
+fn unneeded_work_is_skipped_and_reported() {
+    let dir = common::tmpdir();
+    let path = plane(
+        dir.path(),
+        10.0,
+        2.0,
+        5.0,
+        0,
+        "levels = 4\ncoarsest = 50\nrays = 32\nbounces = 2\nsender_level = 3\ngather_levels = 3\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap().replace(
+        "[camera]",
+        "[[light]]\ntype = \"spot\"\nposition = [0.0, 2.0, 0.0]\ntarget = [0.0, 5.0, 0.0]\n\
+         intensity = [1.0, 1.0, 1.0]\ncutoff_angle = 30.0\nbeam_width = 20.0\n\n[camera]",
+    );
+    std::fs::write(&path, text).unwrap();
+    let scene = common::load(&path, &[]);
+    for gpu in [false, true] {
+        let ctx = gpu.then(|| {
+            std::sync::Arc::new(
+                meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
+                    validation: true,
+                    device: None,
+                })
+                .expect("a Vulkan device"),
+            )
+        });
+        let r = meshrad::cli::run_solver(&scene, ctx, &meshrad::progress::Progress::hidden()).unwrap();
+        let st = &r.solution.stats;
+        assert!(st.nodes_lit_per_light[0] > 0);
+        assert_eq!(st.nodes_lit_per_light[1], 0);
+        assert!(
+            st.skipped.iter().any(|s| s.starts_with("light 1 reaches no node")),
+            "{:?}",
+            st.skipped
+        );
+        assert!(
+            st.skipped
+                .iter()
+                .any(|s| s.contains("bounce 1: levels 2..3 had no active node")),
+            "{:?}",
+            st.skipped
+        );
+        assert_eq!(st.bounces[0].integrals_per_level.len(), 2, "level 2 was not gathered");
+    }
+}

@@ -21,7 +21,7 @@ use crate::geom::sampling::halton_table;
 use crate::hierarchy::Hierarchy;
 use crate::params::{SolverParams, Variant};
 use crate::scene::Scene;
-use crate::transport::{Backend, Energy, NodeValues};
+use crate::transport::{Backend, Energy, NodeValues, Refined};
 
 /// The buffers of a solve.
 struct Buffers {
@@ -66,6 +66,8 @@ pub struct GpuReport {
     pub validation_errors: u32,
     /// Kernels that were built but never dispatched in this solve.
     pub kernels_never_dispatched: Vec<String>,
+    /// Work left out of this solve by construction, and why.
+    pub skipped: Vec<String>,
 }
 
 /// Vulkan compute backend.
@@ -79,6 +81,7 @@ pub struct GpuBackend<'a> {
     addr: u64,
     batch: u32,
     active_count: u32,
+    lights: usize,
     pub report: GpuReport,
 }
 
@@ -149,7 +152,7 @@ impl<'a> GpuBackend<'a> {
             indirect: z("indirect", vec4_bytes(n))?,
             active_flag: z("active flags", (n * 4) as u64)?,
             child_flag: z("child flags", (n * 4) as u64)?,
-            counters: z("counters", 16)?,
+            counters: z("counters", 16 + 4 * scene.lights.len() as u64)?,
             energy: z("energy", 32)?,
             globals: Buffer::new(
                 &ctx,
@@ -234,6 +237,7 @@ impl<'a> GpuBackend<'a> {
             bytes_uploaded,
             seconds_upload: t.elapsed().as_secs_f64(),
             seconds_pipelines,
+            skipped: skipped_by_construction(&p, scene),
             ..Default::default()
         };
         Ok(GpuBackend {
@@ -246,6 +250,7 @@ impl<'a> GpuBackend<'a> {
             addr,
             batch,
             active_count: 0,
+            lights: scene.lights.len(),
             report,
         })
     }
@@ -300,6 +305,18 @@ impl<'a> GpuBackend<'a> {
     }
 }
 
+fn skipped_by_construction(p: &SolverParams, scene: &Scene) -> Vec<String> {
+    let mut v = vec![if p.variant.is_delta() {
+        "pipeline `pulldown` not built: the delta hierarchy fills levels with zero deltas".to_string()
+    } else {
+        "pipeline `delta` not built: the absolute hierarchy needs no delta coefficients".to_string()
+    }];
+    if !scene.textured() {
+        v.push("texture sampling compiled out (specialization constant): no textured material".into());
+    }
+    v
+}
+
 /// Integrals in flight: the rays buffer gets at most an eighth of device memory, 512 MiB
 /// and the device's largest allocation (the paper: 1000 integrals = 512k rays on 1.5 GB).
 fn batch_size(ctx: &Context, p: &SolverParams) -> u32 {
@@ -322,7 +339,7 @@ impl Backend for GpuBackend<'_> {
         format!("gpu ({})", self.ctx.info.name)
     }
 
-    fn direct(&mut self) -> Result<()> {
+    fn direct(&mut self) -> Result<Vec<u32>> {
         let all = self.push(0, self.h.nodes.len());
         let l0 = self.h.level_range(0);
         let mut e = self.push(l0.start, l0.len());
@@ -332,7 +349,8 @@ impl Backend for GpuBackend<'_> {
             compute_barrier(ctx, cmd);
             k.energy.record(prof, cmd, &e);
             compute_barrier(ctx, cmd);
-        })
+        })?;
+        self.b.counters.download(4, self.lights)
     }
 
     fn init_unshot(&mut self) -> Result<()> {
@@ -351,7 +369,9 @@ impl Backend for GpuBackend<'_> {
             b.indirect.fill(cmd, 0, b.indirect.size, 0);
             if delta {
                 for p in &levels {
-                    k.delta.record(prof, cmd, p);
+                    if let Some(d) = &k.delta {
+                        d.record(prof, cmd, p);
+                    }
                     compute_barrier(ctx, cmd);
                 }
             } else {
@@ -404,7 +424,7 @@ impl Backend for GpuBackend<'_> {
         Ok(count)
     }
 
-    fn refine(&mut self, level: u32, activate: bool) -> Result<u32> {
+    fn refine(&mut self, level: u32, activate: bool) -> Result<Refined> {
         let l = level as usize;
         let range = self.h.level_range(l);
         let mut p = self.push(range.start, range.len());
@@ -422,10 +442,8 @@ impl Backend for GpuBackend<'_> {
             compute_barrier(ctx, cmd);
             if level >= 1 {
                 let pred = Push { flag: 0, ..p };
-                if delta {
-                    k.delta.record(prof, cmd, &pred);
-                } else {
-                    k.pulldown.record(prof, cmd, &pred);
+                if let Some(launch) = if delta { &k.delta } else { &k.pulldown } {
+                    launch.record(prof, cmd, &pred);
                 }
                 compute_barrier(ctx, cmd);
             }
@@ -437,10 +455,11 @@ impl Backend for GpuBackend<'_> {
             }
         })?;
         let c: Vec<u32> = self.b.counters.download(0, 2)?;
-        if activate {
-            self.active_count = c[1];
-        }
-        Ok(c[0])
+        self.active_count = if activate { c[1] } else { 0 };
+        Ok(Refined {
+            refined: c[0],
+            activated: self.active_count,
+        })
     }
 
     fn fill(&mut self, from: u32) -> Result<()> {
@@ -456,11 +475,12 @@ impl Backend for GpuBackend<'_> {
             .collect();
         self.submit(|k, prof, cmd, b, ctx| {
             for (p, r) in &levels {
-                if delta {
-                    let (off, size) = range_bytes(r, 16);
-                    b.next.fill(cmd, off, size, 0);
-                } else {
-                    k.pulldown.record(prof, cmd, p);
+                match &k.pulldown {
+                    Some(launch) if !delta => launch.record(prof, cmd, p),
+                    _ => {
+                        let (off, size) = range_bytes(r, 16);
+                        b.next.fill(cmd, off, size, 0);
+                    }
                 }
                 compute_barrier(ctx, cmd);
             }
@@ -490,24 +510,14 @@ impl Backend for GpuBackend<'_> {
         let indirect: Vec<Vec4> = self.b.indirect.download(0, n)?;
         self.report.validation_errors = self.ctx.validation_errors();
         let used: Vec<&str> = self.prof.totals.keys().copied().collect();
-        self.report.kernels_never_dispatched = [
-            &self.k.direct,
-            &self.k.hemisphere,
-            &self.k.trace,
-            &self.k.reconstruct,
-            &self.k.reduce,
-            &self.k.pulldown,
-            &self.k.delta,
-            &self.k.oracle,
-            &self.k.compact,
-            &self.k.accumulate,
-            &self.k.energy,
-        ]
-        .iter()
-        .map(|l| l.kernel.name)
-        .filter(|name| !used.contains(name))
-        .map(String::from)
-        .collect();
+        self.report.kernels_never_dispatched = self
+            .k
+            .all()
+            .iter()
+            .map(|l| l.kernel.name)
+            .filter(|name| !used.contains(name))
+            .map(String::from)
+            .collect();
         if self.report.validation_errors > 0 {
             return Err(Error::Gpu(format!(
                 "the validation layer reported {} error(s); see stderr",

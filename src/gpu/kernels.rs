@@ -58,10 +58,11 @@ pub struct Kernels {
     pub reconstruct: Launch,
     /// The Monte Carlo reduction, one workgroup per integral.
     pub reduce: Launch,
-    /// Pull-down from the parents (prediction, or filling levels without integrals).
-    pub pulldown: Launch,
-    /// The delta hierarchy's prediction and initial coefficients.
-    pub delta: Launch,
+    /// Pull-down from the parents (prediction, or filling levels without integrals);
+    /// built only for the absolute hierarchy.
+    pub pulldown: Option<Launch>,
+    /// The delta hierarchy's prediction and initial coefficients; built only for it.
+    pub delta: Option<Launch>,
     /// New values and the refinement decision.
     pub oracle: Launch,
     /// The next level's active set, compacted in order.
@@ -73,7 +74,26 @@ pub struct Kernels {
 }
 
 impl Kernels {
+    /// Every pipeline that was built.
+    pub fn all(&self) -> Vec<&Launch> {
+        let mut v = vec![
+            &self.direct,
+            &self.hemisphere,
+            &self.trace,
+            &self.reconstruct,
+            &self.reduce,
+            &self.oracle,
+            &self.compact,
+            &self.accumulate,
+            &self.energy,
+        ];
+        v.extend(self.pulldown.iter().chain(&self.delta));
+        v
+    }
+
+    /// Builds the pipelines a solve of this specialization dispatches.
     pub fn new(ctx: &Arc<Context>, spec: Specialization) -> Result<Kernels> {
+        let delta = spec.variant == crate::constants::VARIANT_ORIGINAL;
         let k = |name, spv, size| -> Result<Launch> {
             Ok(Launch {
                 kernel: Kernel::new(ctx, name, spv, spec)?,
@@ -86,8 +106,10 @@ impl Kernels {
             trace: k("trace", shaders::TRACE, Size::Rays)?,
             reconstruct: k("reconstruct", shaders::RECONSTRUCT, Size::Rays)?,
             reduce: k("reduce", shaders::REDUCE, Size::Groups)?,
-            pulldown: k("pulldown", shaders::PULLDOWN, Size::Elements)?,
-            delta: k("delta", shaders::DELTA, Size::Elements)?,
+            pulldown: (!delta)
+                .then(|| k("pulldown", shaders::PULLDOWN, Size::Elements))
+                .transpose()?,
+            delta: delta.then(|| k("delta", shaders::DELTA, Size::Elements)).transpose()?,
             oracle: k("oracle", shaders::ORACLE, Size::Elements)?,
             compact: k("compact", shaders::COMPACT, Size::Single)?,
             accumulate: k("accumulate", shaders::ACCUMULATE, Size::Elements)?,

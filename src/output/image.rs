@@ -35,6 +35,10 @@ impl Images {
 /// Renders the camera view of a solution, reading the indirect light from `level`.
 pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress: &Progress) -> Images {
     let cam = &scene.camera;
+    // Lights that reach no node reach no lit surface: no shadow rays for them.
+    let lights: Vec<bool> = (0..scene.lights.len())
+        .map(|i| sol.stats.nodes_lit_per_light.get(i).is_none_or(|&n| n > 0))
+        .collect();
     let (w, hgt) = (cam.width as usize, cam.height as usize);
     let bar = progress.bar(hgt as u64, "image");
     let rows: Vec<(Vec<Vec3>, Vec<Vec3>)> = (0..hgt)
@@ -48,7 +52,7 @@ pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress
                     Some(hit) => {
                         let s = scene.surface(&hit, ray.d);
                         let k = s.albedo / std::f32::consts::PI;
-                        d.push(k * scene.direct(s.p, s.n));
+                        d.push(k * scene.direct_from(s.p, s.n, &lights));
                         i.push(k * sol.indirect_on(h, s.object as usize, s.p_obj, s.n_obj, level));
                     }
                     None => {

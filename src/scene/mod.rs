@@ -230,17 +230,33 @@ impl Scene {
     /// Exact direct irradiance at a world-space point `(x, n)`: every light, each with a
     /// shadow ray (`ALGORITHM.md` §2).
     pub fn direct(&self, x: Vec3, n: Vec3) -> Vec3 {
-        let o = self.offset(x, n);
         let mut e = Vec3::ZERO;
-        for l in &self.lights {
+        self.direct_each(x, n, |_, v| e += v);
+        e
+    }
+
+    /// Direct irradiance from the lights `which` only.
+    pub fn direct_from(&self, x: Vec3, n: Vec3, which: &[bool]) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        self.direct_each(x, n, |i, v| {
+            if which[i] {
+                e += v
+            }
+        });
+        e
+    }
+
+    /// Calls `f(light index, irradiance)` for each light that reaches `(x, n)`.
+    pub fn direct_each(&self, x: Vec3, n: Vec3, mut f: impl FnMut(usize, Vec3)) {
+        let o = self.offset(x, n);
+        for (i, l) in self.lights.iter().enumerate() {
             if let Some(s) = light::light_sample(l, x, n, o) {
                 let ray = Ray { o, d: s.to_light };
                 if !self.occluded(&ray, s.tmax) {
-                    e += s.irradiance;
+                    f(i, s.irradiance);
                 }
             }
         }
-        e
     }
 
     /// Whether any material is textured (texture sampling can be compiled out otherwise).

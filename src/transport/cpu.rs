@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use rayon::prelude::*;
 
-use super::{reconstruct, Backend, Energy, NodeValues};
+use super::{reconstruct, Backend, Energy, NodeValues, Refined};
 use crate::error::Result;
 use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
 use crate::geom::transform::{xform_point, xform_vector};
@@ -33,10 +33,16 @@ pub fn node_world(scene: &Scene, h: &Hierarchy, j: usize) -> (Vec3, Vec3) {
     )
 }
 
-/// Exact direct irradiance at node `j` (kernel `direct`).
-pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize) -> Vec3 {
+/// Exact direct irradiance at node `j` (kernel `direct`); `lit[i]` is set when light `i`
+/// contributes.
+pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize, lit: &mut [bool]) -> Vec3 {
     let (x, n) = node_world(scene, h, j);
-    scene.direct(x, n)
+    let mut e = Vec3::ZERO;
+    scene.direct_each(x, n, |i, v| {
+        lit[i] = true;
+        e += v;
+    });
+    e
 }
 
 /// One gathering integral at node `j` (kernels `hemisphere`, `trace`, `reconstruct`,
@@ -176,20 +182,29 @@ impl Backend for CpuBackend<'_> {
         "cpu".into()
     }
 
-    fn direct(&mut self) -> Result<()> {
+    fn direct(&mut self) -> Result<Vec<u32>> {
         let (scene, h) = (self.scene, self.h);
         let bar = self.progress.bar(h.nodes.len() as u64, "direct");
-        self.direct.par_iter_mut().enumerate().for_each(|(j, e)| {
-            *e = direct_at_node(scene, h, j).extend(0.0);
-            if j % 1024 == 0 {
-                bar.inc(1024);
-            }
-        });
+        let nl = scene.lights.len();
+        let lit: Vec<Vec<bool>> = self
+            .direct
+            .par_iter_mut()
+            .enumerate()
+            .map(|(j, e)| {
+                let mut lit = vec![false; nl];
+                *e = direct_at_node(scene, h, j, &mut lit).extend(0.0);
+                if j % 1024 == 0 {
+                    bar.inc(1024);
+                }
+                lit
+            })
+            .collect();
         bar.finish();
+        let counts = (0..nl).map(|i| lit.iter().filter(|l| l[i]).count() as u32).collect();
         let l0 = h.level_range(0);
         let count = l0.len().max(1) as f32;
         self.mean_direct = self.direct[l0].iter().map(|v| v.xyz()).sum::<Vec3>() / count;
-        Ok(())
+        Ok(counts)
     }
 
     fn init_unshot(&mut self) -> Result<()> {
@@ -247,7 +262,7 @@ impl Backend for CpuBackend<'_> {
         Ok(list.len() as u32)
     }
 
-    fn refine(&mut self, level: u32, activate: bool) -> Result<u32> {
+    fn refine(&mut self, level: u32, activate: bool) -> Result<Refined> {
         let range = self.h.level_range(level as usize);
         let delta = self.p.variant.is_delta();
         let out: Vec<(Vec4, bool)> = range
@@ -285,7 +300,10 @@ impl Backend for CpuBackend<'_> {
             let next_range = self.h.level_range(level as usize + 1);
             self.active = next_range.filter(|&c| flags[c]).map(|c| c as u32).collect();
         }
-        Ok(refined)
+        Ok(Refined {
+            refined,
+            activated: if activate { self.active.len() as u32 } else { 0 },
+        })
     }
 
     fn fill(&mut self, from: u32) -> Result<()> {

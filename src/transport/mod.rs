@@ -29,6 +29,15 @@ pub struct Energy {
     pub direct: f64,
 }
 
+/// What the oracle decided on a level.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Refined {
+    /// Gathered nodes whose value the oracle refines.
+    pub refined: u32,
+    /// Nodes of the next level activated (children of refined nodes), if asked.
+    pub activated: u32,
+}
+
 /// Per-node results, in the hierarchy's global node order.
 #[derive(Clone, Debug)]
 pub struct NodeValues {
@@ -42,16 +51,16 @@ pub struct NodeValues {
 pub trait Backend {
     /// Device or "cpu", for stats.
     fn name(&self) -> String;
-    /// `E_d` at every node by shadow rays.
-    fn direct(&mut self) -> Result<()>;
+    /// `E_d` at every node by shadow rays; returns, per light, how many nodes it lights.
+    fn direct(&mut self) -> Result<Vec<u32>>;
     /// Un-shot := `E_d` in the variant's representation; indirect := 0.
     fn init_unshot(&mut self) -> Result<()>;
     /// Gathering integrals for the active nodes of `level` (all nodes on levels 0 and 1,
     /// else those activated by `refine(level − 1, true)`); returns their count.
     fn gather(&mut self, level: u32) -> Result<u32>;
     /// Prediction, oracle and new values of `level`; with `activate`, the children of the
-    /// refined nodes become the active set of `level + 1`. Returns the refined count.
-    fn refine(&mut self, level: u32, activate: bool) -> Result<u32>;
+    /// refined nodes become the active set of `level + 1`.
+    fn refine(&mut self, level: u32, activate: bool) -> Result<Refined>;
     /// Levels `from..m` without integrals: pull-down (modified) or zero deltas (original).
     fn fill(&mut self, from: u32) -> Result<()>;
     /// Indirect += new; un-shot := new.
@@ -73,6 +82,8 @@ pub struct BounceStats {
     pub seconds: f64,
     /// Un-shot energy after this bounce relative to the direct energy.
     pub unshot_ratio: f64,
+    /// The first gathered level that had no active node (skipped with the finer ones).
+    pub empty_from: Option<u32>,
 }
 
 /// Statistics of a solve.
@@ -87,6 +98,10 @@ pub struct SolveStats {
     pub integrals: u64,
     pub rays_traced: u64,
     pub stopped_early: Option<String>,
+    /// Work a scene did not need, and why.
+    pub skipped: Vec<String>,
+    /// Nodes lit by each light.
+    pub nodes_lit_per_light: Vec<u32>,
     pub kernel_seconds: Vec<(String, f64)>,
 }
 
@@ -108,8 +123,15 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
     };
     let t = Instant::now();
     progress.stage("direct irradiance at nodes");
-    backend.direct()?;
+    stats.nodes_lit_per_light = backend.direct()?;
     stats.seconds_direct = t.elapsed().as_secs_f64();
+    for (i, &n) in stats.nodes_lit_per_light.iter().enumerate() {
+        if n == 0 {
+            stats.skipped.push(format!(
+                "light {i} reaches no node (outside its cone, facing away, or blocked): left out of image rendering"
+            ));
+        }
+    }
     let t = Instant::now();
     backend.init_unshot()?;
     stats.seconds_init = t.elapsed().as_secs_f64();
@@ -117,6 +139,17 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
     for k in 1..=p.bounces {
         progress.stage(&format!("bounce {k}/{}", p.bounces));
         let b = bounce(backend, p, k)?;
+        if let Some(l) = b.empty_from {
+            stats.skipped.push(format!(
+                "bounce {k}: levels {l}..{} had no active node: no integrals, filled by {}",
+                p.gather_levels,
+                if p.variant.is_delta() {
+                    "zero deltas"
+                } else {
+                    "pull-down"
+                }
+            ));
+        }
         let integrals: u64 = b.integrals_per_level.iter().map(|&n| n as u64).sum();
         stats.integrals += integrals;
         stats.rays_traced += integrals * p.rays as u64;
@@ -149,11 +182,22 @@ pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<Bou
         bounce: k,
         ..Default::default()
     };
+    let mut next_active = u32::MAX;
+    let mut filled_from = g;
     for l in 0..g {
+        if l >= 2 && next_active == 0 {
+            // No node of this level is active: nothing to gather; the level and the finer
+            // ones take their predictions, exactly what `refine` would give them.
+            b.empty_from = Some(l);
+            filled_from = l;
+            break;
+        }
         b.integrals_per_level.push(backend.gather(l)?);
-        b.refined_per_level.push(backend.refine(l, l >= 1 && l + 1 < g)?);
+        let r = backend.refine(l, l >= 1 && l + 1 < g)?;
+        b.refined_per_level.push(r.refined);
+        next_active = r.activated;
     }
-    backend.fill(g)?;
+    backend.fill(filled_from)?;
     let e = backend.end_bounce()?;
     b.seconds = t.elapsed().as_secs_f64();
     b.unshot_ratio = if e.direct > 0.0 { e.unshot / e.direct } else { 0.0 };
