@@ -22,3 +22,6 @@ pub const LINEAR_GROUP: u32 = 64;
 pub const VARIANT_ORIGINAL: u32 = 0;
 pub const VARIANT_MODIFIED: u32 = 1;
 pub const VARIANT_APPROX: u32 = 2;
+/// BVH kinds as the GLSL specialization constant `BVH_KIND` sees them.
+pub const BVH_BVH2: u32 = 0;
+pub const BVH_CWBVH: u32 = 1;

@@ -110,10 +110,16 @@ pub struct ObjectInfo {
     pub level_count: [u32; MAX_LEVELS as usize],
     /// Poisson radius `r_l` of each level, in object space.
     pub radius: [f32; MAX_LEVELS as usize],
+    /// Root of this object's CWBVH in the scene's CWBVH node array (if built).
+    pub cw_root: u32,
+    pub pad: [u32; 3],
 }
 
 /// The BVH node type (obvhs' `Bvh2Node`, 48 bytes), uploaded as it is.
 pub type BvhNode = obvhs::bvh2::node::Bvh2Node;
+
+/// The compressed wide BVH node (obvhs' `CwBvhNode`, 80 bytes), uploaded as it is.
+pub type CwNode = obvhs::cwbvh::node::CwBvhNode;
 
 const _: () = {
     assert!(std::mem::size_of::<Tri>() == 48);
@@ -124,7 +130,8 @@ const _: () = {
     assert!(std::mem::size_of::<Material>() == 16);
     assert!(std::mem::size_of::<TextureInfo>() == 16);
     assert!(std::mem::size_of::<GpuLight>() == 48);
-    assert!(std::mem::size_of::<ObjectInfo>() == 112 + 12 * MAX_LEVELS as usize);
+    assert!(std::mem::size_of::<ObjectInfo>() == 112 + 12 * MAX_LEVELS as usize + 16);
+    assert!(std::mem::size_of::<CwNode>() == 80);
     assert!(std::mem::size_of::<BvhNode>() == 48);
     assert!(std::mem::offset_of!(ObjectInfo, level_start) == 112);
     assert!(std::mem::offset_of!(BvhNode, prim_count) == 32);

@@ -38,6 +38,16 @@ impl Variant {
     }
 }
 
+/// The BVH the GPU traverses (the CPU reference always traverses the BVH2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum BvhKind {
+    /// Binary BVH, 48-byte nodes.
+    Bvh2,
+    /// Compressed wide BVH8 (Ylitie et al. 2017), 80-byte nodes.
+    Cwbvh,
+}
+
 /// Every parameter of the solver. Unknown keys are an error.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -84,6 +94,8 @@ pub struct SolverParams {
     pub reach_bounces: u32,
     /// GPU: gathering integrals in flight per batch (0: sized from the device).
     pub batch_integrals: u32,
+    /// GPU: the BVH layout traversed.
+    pub bvh: BvhKind,
 }
 
 impl Default for SolverParams {
@@ -110,6 +122,7 @@ impl Default for SolverParams {
             reach_paths: 1 << 17,
             reach_bounces: 6,
             batch_integrals: 0,
+            bvh: BvhKind::Bvh2,
         }
     }
 }

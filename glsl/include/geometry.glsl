@@ -188,6 +188,17 @@ bool trace_bvh(BvhRef bvh, TriRef tris, uint root, vec3 o, vec3 d, inout float t
     return found;
 }
 
+#include "cwbvh.glsl"
+
+// The object's BVH, by the BVH_KIND specialization constant.
+bool trace_object(GlobalsRef g, ObjectInfo ob, vec3 o, vec3 d, inout float tmax, bool any_hit, out uint tri,
+                  out vec3 tuv) {
+    if (BVH_KIND == BVH_CWBVH) {
+        return trace_cwbvh(g.cw_nodes, g.cw_prims, g.tris, ob.cw_root, o, d, tmax, any_hit, tri, tuv);
+    }
+    return trace_bvh(g.bvh, g.tris, ob.bvh_offset, o, d, tmax, any_hit, tri, tuv);
+}
+
 // Closest hit over all objects of a world-space ray. Returns the object or NONE.
 uint trace_scene(GlobalsRef g, vec3 o, vec3 d, float tmax, out uint tri, out vec3 tuv) {
     uint object = NONE;
@@ -200,7 +211,7 @@ uint trace_scene(GlobalsRef g, vec3 o, vec3 d, float tmax, out uint tri, out vec
         vec3 od = xform_vector(ob.to_object, d);
         uint t;
         vec3 h;
-        if (trace_bvh(g.bvh, g.tris, ob.bvh_offset, oo, od, tmax, false, t, h)) {
+        if (trace_object(g, ob, oo, od, tmax, false, t, h)) {
             object = k;
             tri = t;
             tuv = h;
@@ -212,18 +223,17 @@ uint trace_scene(GlobalsRef g, vec3 o, vec3 d, float tmax, out uint tri, out vec
 // Whether anything blocks a world-space ray in (0, tmax).
 bool occluded_scene(GlobalsRef g, vec3 o, vec3 d, float tmax) {
     ObjectRef objects = g.objects;
-    for (uint k = 0u; k < g.num_objects; k++) {
+    bool hit = false;
+    for (uint k = 0u; k < g.num_objects && !hit; k++) {
         ObjectInfo ob = objects.v[k];
         vec3 oo = xform_point(ob.to_object, o);
         vec3 od = xform_vector(ob.to_object, d);
         uint t;
         vec3 h;
         float tm = tmax;
-        if (trace_bvh(g.bvh, g.tris, ob.bvh_offset, oo, od, tm, true, t, h)) {
-            return true;
-        }
+        hit = trace_object(g, ob, oo, od, tm, true, t, h);
     }
-    return false;
+    return hit;
 }
 
 #endif

@@ -9,10 +9,11 @@
 
 #include "constants.glsl"
 
-// Specialization constants, set per solve (src/gpu/pipeline.rs): the variant, and whether
-// any material is textured (texture sampling is compiled out otherwise).
+// Specialization constants, set per solve (src/gpu/pipeline.rs): the variant, whether
+// any material is textured (texture sampling is compiled out otherwise), and the BVH.
 layout(constant_id = 0) const uint VARIANT = VARIANT_MODIFIED;
 layout(constant_id = 1) const bool TEXTURED = true;
+layout(constant_id = 2) const uint BVH_KIND = BVH_BVH2;
 
 struct Tri { vec3 v0; uint material; vec3 v1; uint pad0; vec3 v2; uint pad1; };
 struct TriUv { float uv[6]; };
@@ -32,8 +33,13 @@ struct ObjectInfo {
     uint level_start[MAX_LEVELS];
     uint level_count[MAX_LEVELS];
     float radius[MAX_LEVELS];
+    uint cw_root;
+    uint pad0;
+    uint pad1;
+    uint pad2;
 };
 struct BvhNode { vec3 lo; float pad0; vec3 hi; float pad1; uint prim_count; uint first_index; uint meta1; uint meta2; };
+struct CwNode { vec3 p; uint e_imask; uint child_base; uint prim_base; uvec2 meta; uvec2 lox; uvec2 hix; uvec2 loy; uvec2 hiy; uvec2 loz; uvec2 hiz; };
 struct Ray { vec4 o; vec4 d; };
 struct HitRecord { uint object; uint tri; float b1; float b2; };
 
@@ -47,6 +53,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer TextureInfo
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer LightRef { GpuLight v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer ObjectRef { ObjectInfo v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer BvhRef { BvhNode v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer CwNodeRef { CwNode v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer RayRef { Ray v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer HitRef { HitRecord v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Ref { vec4 v[]; };
@@ -59,6 +66,8 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     TriRef tris;
     TriUvRef uvs;
     BvhRef bvh;
+    CwNodeRef cw_nodes;
+    UintRef cw_prims;
     MaterialRef materials;
     TextureInfoRef textures;
     UintRef texels;

@@ -6,7 +6,7 @@ use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle, BvhBuildPar
 
 use super::ray::{Ray, WatertightRay};
 use crate::error::{Error, Result};
-use crate::layout::{BvhNode, Tri};
+use crate::layout::{BvhNode, CwNode, Tri};
 
 /// Traversal stack entries; a BVH deeper than this is rejected at build time.
 pub const BVH_STACK: usize = crate::constants::BVH_STACK as usize;
@@ -84,6 +84,29 @@ pub fn slab(node: &BvhNode, o: Vec3, inv: Vec3, tmax: f32) -> f32 {
     } else {
         f32::INFINITY
     }
+}
+
+/// A CWBVH over `tris` (already in BVH2 order) placed at `node_offset` in a shared node
+/// array, its leaves indexing a shared primitive array at `prim_offset` that holds global
+/// triangle indices (`tri_offset` + local).
+pub fn build_cwbvh(tris: &[Tri], node_offset: u32, prim_offset: u32, tri_offset: u32) -> (Vec<CwNode>, Vec<u32>) {
+    let input: Vec<Triangle> = tris
+        .iter()
+        .map(|t| Triangle {
+            v0: Vec3A::from_array(t.v0),
+            v1: Vec3A::from_array(t.v1),
+            v2: Vec3A::from_array(t.v2),
+        })
+        .collect();
+    let mut time = std::time::Duration::ZERO;
+    let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&input, BvhBuildParams::medium_build(), &mut time);
+    let mut nodes = cw.nodes;
+    for n in &mut nodes {
+        n.child_base_idx += node_offset;
+        n.primitive_base_idx += prim_offset;
+    }
+    let prims = cw.primitive_indices.iter().map(|&i| i + tri_offset).collect();
+    (nodes, prims)
 }
 
 /// Shifts a BVH's indices so that it can live at `node_offset` in a shared node array

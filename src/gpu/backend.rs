@@ -15,11 +15,11 @@ use super::globals::{Globals, Push, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
 use super::kernels::Kernels;
 use super::pipeline::Specialization;
 use super::profiler::Profiler;
-use crate::constants::{VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL};
+use crate::constants::{BVH_BVH2, BVH_CWBVH, VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL};
 use crate::error::{Error, Result};
 use crate::geom::sampling::halton_table;
 use crate::hierarchy::Hierarchy;
-use crate::params::{SolverParams, Variant};
+use crate::params::{BvhKind, SolverParams, Variant};
 use crate::scene::Scene;
 use crate::transport::{Backend, Energy, NodeValues, Refined};
 
@@ -101,6 +101,10 @@ impl<'a> GpuBackend<'a> {
                 Variant::Approx => VARIANT_APPROX,
             },
             textured: scene.textured(),
+            bvh: match p.bvh {
+                BvhKind::Bvh2 => BVH_BVH2,
+                BvhKind::Cwbvh => BVH_CWBVH,
+            },
         };
         let k = Kernels::new(&ctx, spec)?;
         let seconds_pipelines = t.elapsed().as_secs_f64();
@@ -132,6 +136,8 @@ impl<'a> GpuBackend<'a> {
             up("child offsets", bytemuck::cast_slice(&h.child_offset))?,
             up("children", bytemuck::cast_slice(&h.children))?,
             up("halton", bytemuck::cast_slice(&halton))?,
+            up("cwbvh nodes", bytemuck::cast_slice(&scene.cw_nodes))?,
+            up("cwbvh primitives", bytemuck::cast_slice(&scene.cw_prims))?,
         ];
         let bytes_uploaded = scene_bufs.iter().map(|b| b.size).sum();
         let z = |name: &str, size: u64| Buffer::zeroed(&ctx, name, size);
@@ -169,6 +175,8 @@ impl<'a> GpuBackend<'a> {
             tris: s[0].address,
             uvs: s[1].address,
             bvh: s[2].address,
+            cw_nodes: s[16].address,
+            cw_prims: s[17].address,
             materials: s[3].address,
             textures: s[4].address,
             texels: s[5].address,

@@ -11,6 +11,8 @@ pub struct Globals {
     pub tris: u64,
     pub uvs: u64,
     pub bvh: u64,
+    pub cw_nodes: u64,
+    pub cw_prims: u64,
     pub materials: u64,
     pub textures: u64,
     pub texels: u64,
@@ -76,8 +78,8 @@ pub const HIT_BYTES: u64 = 16;
 pub const CONTRIB_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 31 * 8 + 14 * 4);
-    assert!(std::mem::offset_of!(Globals, num_objects) == 248);
-    assert!(std::mem::offset_of!(Globals, sender_level) == 296);
+    assert!(std::mem::size_of::<Globals>() == 33 * 8 + 14 * 4);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 264);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 312);
     assert!(std::mem::size_of::<Push>() == 32);
 };

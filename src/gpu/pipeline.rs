@@ -11,11 +11,12 @@ use super::globals::Push;
 use super::VkCheck;
 use crate::error::{Error, Result};
 
-/// Values of the specialization constants (ids 0 and 1 in `layout.glsl`).
+/// Values of the specialization constants (ids 0, 1, 2 in `layout.glsl`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Specialization {
     pub variant: u32,
     pub textured: bool,
+    pub bvh: u32,
 }
 
 /// A compute pipeline.
@@ -49,10 +50,11 @@ impl Kernel {
                 return Err(super::vk_err("vkCreatePipelineLayout", r));
             }
         };
-        let data: [u32; 2] = [spec.variant, spec.textured as u32];
+        let data: [u32; 3] = [spec.variant, spec.textured as u32, spec.bvh];
         let entries = [
             vk::SpecializationMapEntry::default().constant_id(0).offset(0).size(4),
             vk::SpecializationMapEntry::default().constant_id(1).offset(4).size(4),
+            vk::SpecializationMapEntry::default().constant_id(2).offset(8).size(4),
         ];
         let spec_info = vk::SpecializationInfo::default()
             .map_entries(&entries)

@@ -399,6 +399,7 @@ impl Hierarchy {
                     tri_offset: o.tri_offset,
                     tri_count: o.tri_count,
                     bvh_offset: o.bvh_root,
+                    cw_root: o.cw_root,
                     ..Default::default()
                 };
                 for l in 0..(self.levels as usize).min(MAX_LEVELS as usize) {

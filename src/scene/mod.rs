@@ -21,8 +21,8 @@ use crate::geom::bvh;
 use crate::geom::ray::{offset_origin, tri_normal, tri_point};
 use crate::geom::transform::{xform_point, xform_vector, Affine};
 use crate::geom::{Hit, Ray, Transform};
-use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
-use crate::params::SolverParams;
+use crate::layout::{BvhNode, CwNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
+use crate::params::{BvhKind, SolverParams};
 
 /// One scene object.
 #[derive(Clone, Debug)]
@@ -36,6 +36,8 @@ pub struct SceneObject {
     pub tri_count: u32,
     /// Root of this object's BVH in [`Scene::bvh`].
     pub bvh_root: u32,
+    /// Root of this object's CWBVH in [`Scene::cw_nodes`] (0 when not built).
+    pub cw_root: u32,
     /// Surface area in object space (one side).
     pub area: f64,
 }
@@ -59,6 +61,9 @@ pub struct Scene {
     /// Per-triangle uvs; empty when no material is textured.
     pub uvs: Vec<TriUv>,
     pub bvh: Vec<BvhNode>,
+    /// CWBVH nodes and their triangle indices (global), when `params.bvh` asks for them.
+    pub cw_nodes: Vec<CwNode>,
+    pub cw_prims: Vec<u32>,
     pub materials: Vec<Material>,
     pub material_names: Vec<String>,
     pub textures: Vec<TextureInfo>,
@@ -146,7 +151,10 @@ impl Scene {
             .enumerate()
             .map(|(i, l)| light::from_entry(l, i, path))
             .collect::<Result<Vec<_>>>()?;
-        let mut b = Builder::default();
+        let mut b = Builder {
+            cwbvh: file.solver.bvh == BvhKind::Cwbvh,
+            ..Default::default()
+        };
         for (i, entry) in file.object.iter().enumerate() {
             b.add_object(&source, path, i, entry)?;
         }
@@ -290,10 +298,13 @@ pub fn apply_overrides(params: &SolverParams, overrides: &[(String, toml::Value)
 
 #[derive(Default)]
 struct Builder {
+    cwbvh: bool,
     objects: Vec<SceneObject>,
     tris: Vec<Tri>,
     uvs: Vec<[f32; 6]>,
     bvh: Vec<BvhNode>,
+    cw_nodes: Vec<CwNode>,
+    cw_prims: Vec<u32>,
     materials: Vec<obj::MtlData>,
     report: LoadReport,
 }
@@ -348,6 +359,12 @@ impl Builder {
         let tri_offset = self.tris.len() as u32;
         let node_offset = self.bvh.len() as u32;
         bvh::rebase(&mut nodes, node_offset, tri_offset);
+        let cw_root = self.cw_nodes.len() as u32;
+        if self.cwbvh {
+            let (cw, prims) = bvh::build_cwbvh(&mesh.tris, cw_root, self.cw_prims.len() as u32, tri_offset);
+            self.cw_nodes.extend(cw);
+            self.cw_prims.extend(prims);
+        }
         let area = mesh
             .tris
             .iter()
@@ -377,6 +394,7 @@ impl Builder {
             tri_offset,
             tri_count: mesh.tris.len() as u32,
             bvh_root: node_offset,
+            cw_root,
             area,
         });
         let n = mesh.tris.len();
@@ -492,6 +510,8 @@ impl Builder {
             tris: self.tris,
             uvs,
             bvh: self.bvh,
+            cw_nodes: self.cw_nodes,
+            cw_prims: self.cw_prims,
             materials,
             material_names: self.materials.iter().map(|m| m.name.clone()).collect(),
             textures,
