@@ -7,6 +7,7 @@
 //! [`output`] evaluates the solution at pixels and probe points.
 
 pub mod analytic;
+pub mod bench;
 pub mod cli;
 pub mod constants;
 pub mod error;
@@ -14,9 +15,11 @@ pub mod geom;
 pub mod gpu;
 pub mod hierarchy;
 pub mod layout;
+pub mod metrics;
 pub mod output;
 pub mod params;
 pub mod progress;
+pub mod reference;
 pub mod scene;
 pub mod transport;
 

@@ -92,6 +92,8 @@ pub struct SolverParams {
     pub reach_paths: u32,
     /// Bounces of those paths.
     pub reach_bounces: u32,
+    /// Candidates in a gap narrower than this many finest-level radii get no node (0: off).
+    pub crevice_distance: f32,
     /// GPU: gathering integrals in flight per batch (0: sized from the device).
     pub batch_integrals: u32,
     /// GPU: the BVH layout traversed.
@@ -121,6 +123,7 @@ impl Default for SolverParams {
             max_candidates: 8_000_000,
             reach_paths: 1 << 17,
             reach_bounces: 6,
+            crevice_distance: 1.0,
             batch_integrals: 0,
             bvh: BvhKind::Bvh2,
         }
@@ -170,6 +173,7 @@ impl SolverParams {
         finite("approx_cos", self.approx_cos, -1.0, 1.0)?;
         finite("stop_threshold", self.stop_threshold, 0.0, 1.0)?;
         finite("candidate_factor", self.candidate_factor, 1.0, 1e3)?;
+        finite("crevice_distance", self.crevice_distance, 0.0, 100.0)?;
         Ok(())
     }
 }

@@ -124,7 +124,7 @@ fn probe_prints_the_csv() {
     let pts = dir.path().join("p.txt");
     std::fs::write(
         &pts,
-        "# floor centre, facing up\n278 0 279.6 0 1 0\n\n100 0 100  0 1 0 # near the green wall\n278 548.8 279.6 0 -1 0\n",
+        "# floor centre, facing up\n278 0 279.6 0 1 0\n\n100 0 100  0 1 0 # near the green wall\n100 548.8 100 0 -1 0\n",
     )
     .unwrap();
     let csv = dir.path().join("p.csv");

@@ -19,13 +19,17 @@ fn cornell(levels: u32) -> Scene {
     s
 }
 
-/// Random points on the sides light reaches (the same definition the build uses).
-fn surface_points(scene: &Scene, n: usize) -> Vec<(Vec3, Vec3)> {
+/// Random points on the sides light reaches, out of crevices (the definitions the build
+/// uses).
+fn surface_points(scene: &Scene, h: &Hierarchy, n: usize) -> Vec<(Vec3, Vec3)> {
     let p = &scene.params;
     let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
+    let d_min = p.crevice_distance * h.stats.radius_per_level.last().unwrap();
     poisson::candidates(&scene.tris, &sides, n, 12345)
         .into_iter()
-        .map(|c| (c.pos, c.normal))
+        .enumerate()
+        .filter(|(i, c)| !meshrad::hierarchy::in_crevice(scene, 0, c, d_min, *i as u32))
+        .map(|(_, c)| (c.pos, c.normal))
         .collect()
 }
 
@@ -62,7 +66,7 @@ fn dart_throwing_is_maximal() {
     let sides = vec![true; scene.tris.len() * 2];
     let pool = poisson::candidates(&scene.tris, &sides, 20_000, 5);
     let r = 20.0;
-    let set = poisson::dart_throw(&pool, r);
+    let set = poisson::dart_throw(&pool, r, |_| true);
     let mut g = poisson::Grid::new(r);
     for c in &set {
         g.insert(*c);
@@ -77,7 +81,8 @@ fn partition_of_unity_and_constants() {
     let scene = cornell(5);
     let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
     let constant = vec![Vec4::new(2.5, 2.5, 2.5, 0.0); h.nodes.len()];
-    let pts = surface_points(&scene, 2000);
+    let pts = surface_points(&scene, &h, 2000);
+    assert!(pts.len() > 1800, "most points are out of crevices");
     for l in 0..5 {
         let mut holes = 0;
         for &(p, n) in &pts {

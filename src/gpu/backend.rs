@@ -348,6 +348,8 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn direct(&mut self) -> Result<Vec<u32>> {
+        // A solve starts here: its kernel times start from zero.
+        self.prof.totals.clear();
         let all = self.push(0, self.h.nodes.len());
         let l0 = self.h.level_range(0);
         let mut e = self.push(l0.start, l0.len());

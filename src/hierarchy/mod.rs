@@ -9,19 +9,45 @@ pub mod kdtree;
 pub mod poisson;
 pub mod weight;
 
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::geom::sampling::{cosine_direction, integral_rotation, onb};
+use crate::geom::transform::{xform_point, xform_vector};
+use crate::geom::Ray;
 use crate::layout::{KdSplit, Node, ObjectInfo, Parent};
 use crate::params::MAX_LEVELS;
 use crate::progress::Progress;
 use crate::scene::{reach, Scene};
 use poisson::Candidate;
 use weight::node_weight;
+
+/// Whether a candidate lies in a crevice: 7 of 8 stratified cosine-distributed rays from it
+/// hit something within `d_min` (world units). Such a point sits in a gap light does not
+/// enter (under an object resting on the floor, behind a luminaire a hair below the
+/// ceiling); a node there would blend its darkness into the lit surface facing it.
+pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32) -> bool {
+    let obj = &scene.objects[o];
+    let x = xform_point(&obj.to_world, c.pos);
+    let n = xform_vector(&obj.to_world, c.normal).normalize();
+    let origin = scene.offset(x, n);
+    let (t, b) = onb(n);
+    let phi0 = integral_rotation(0x0c0e_u32, index);
+    let mut near = 0;
+    for k in 0..8 {
+        let u = Vec2::new((k as f32 + 0.5) / 8.0, (k as f32 * 0.618_034).fract());
+        let d = cosine_direction(n, t, b, u, phi0);
+        if scene.occluded(&Ray { o: origin, d }, d_min) {
+            near += 1;
+        }
+    }
+    near >= 7
+}
 
 /// Where one object's nodes of each level live, and the levels' radii in object space.
 #[derive(Clone, Debug, Default)]
@@ -43,6 +69,9 @@ pub struct HierarchyStats {
     /// Children with no same-side node on the parent level at all.
     pub orphans_per_level: Vec<u32>,
     pub reachable_area: f64,
+    /// Candidates dropped because they lie in a crevice (a gap narrower than the
+    /// finest level's radius, e.g. under an object resting on the floor).
+    pub crevice_candidates_dropped: usize,
     pub reachable_sides: usize,
     pub seconds_reach: f64,
     pub seconds_candidates: f64,
@@ -135,6 +164,12 @@ impl Hierarchy {
             .flat_map(|o| (0..m).map(move |l| (o, l)))
             .collect();
         let mut pool_sizes = vec![0u64; m];
+        // Crevice test, memoised per candidate across levels: 0 unknown, 1 open, 2 crevice.
+        let memo: Vec<Vec<AtomicU8>> = pools
+            .iter()
+            .map(|p| (0..p.len()).map(|_| AtomicU8::new(0)).collect())
+            .collect();
+        let d_min = (p.crevice_distance as f64 * radius[m - 1]) as f32;
         let sets: Vec<Vec<Candidate>> = jobs
             .par_iter()
             .map(|&(o, l)| {
@@ -142,9 +177,25 @@ impl Hierarchy {
                 let want = (p.candidate_factor as f64 * expected(areas[o], l)).ceil() as usize;
                 let n = want.clamp(pool.len().min(64), pool.len());
                 let r = radius[l] / scene.objects[o].transform.scale as f64;
-                poisson::dart_throw(&pool[..n], r as f32)
+                let usable = |i: usize| {
+                    if d_min <= 0.0 {
+                        return true;
+                    }
+                    let state = memo[o][i].load(Ordering::Relaxed);
+                    if state != 0 {
+                        return state == 1;
+                    }
+                    let open = !in_crevice(scene, o, &pool[i], d_min, i as u32);
+                    memo[o][i].store(if open { 1 } else { 2 }, Ordering::Relaxed);
+                    open
+                };
+                poisson::dart_throw(&pool[..n], r as f32, usable)
             })
             .collect();
+        stats.crevice_candidates_dropped = memo
+            .iter()
+            .map(|m| m.iter().filter(|s| s.load(Ordering::Relaxed) == 2).count())
+            .sum();
         for &(o, l) in &jobs {
             let want = (p.candidate_factor as f64 * expected(areas[o], l)).ceil() as u64;
             pool_sizes[l] += want.clamp(pools[o].len().min(64) as u64, pools[o].len() as u64);

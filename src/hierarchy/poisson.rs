@@ -161,11 +161,12 @@ impl Grid {
 }
 
 /// Dart throwing: accepts each candidate, in order, that keeps distance `r` to every
-/// accepted point on the same side. The result is maximal for `pool`.
-pub fn dart_throw(pool: &[Candidate], r: f32) -> Vec<Candidate> {
+/// accepted point on the same side and that `usable(index)` admits (asked only for
+/// candidates that would be accepted). The result is maximal for the usable pool.
+pub fn dart_throw(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool) -> Vec<Candidate> {
     let mut g = Grid::new(r);
-    for c in pool {
-        if !g.conflicts(c) {
+    for (i, c) in pool.iter().enumerate() {
+        if !g.conflicts(c) && usable(i) {
             g.insert(*c);
         }
     }

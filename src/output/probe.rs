@@ -86,6 +86,27 @@ pub fn evaluate(scene: &Scene, h: &Hierarchy, sol: &Solution, probes: &[Probe], 
         .collect()
 }
 
+/// The reference CSV header: the probe columns plus the standard errors of the indirect
+/// (and total: direct is exact) irradiance.
+pub const REFERENCE_HEADER: &str = "px,py,pz,nx,ny,nz,direct_r,direct_g,direct_b,indirect_r,indirect_g,indirect_b,\
+total_r,total_g,total_b,indirect_se_r,indirect_se_g,indirect_se_b";
+
+/// The reference CSV text.
+pub fn reference_csv(probes: &[Probe], direct: &[Vec3], est: &[crate::reference::Estimate]) -> String {
+    let mut s = String::from(REFERENCE_HEADER);
+    s.push('\n');
+    for ((q, d), e) in probes.iter().zip(direct).zip(est) {
+        let (i, se) = (e.mean, e.std_err);
+        let t = d.as_dvec3() + i;
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            q.p.x, q.p.y, q.p.z, q.n.x, q.n.y, q.n.z, d.x, d.y, d.z, i.x, i.y, i.z, t.x, t.y, t.z, se.x, se.y, se.z
+        );
+    }
+    s
+}
+
 /// The CSV text for probes and their values.
 pub fn csv(probes: &[Probe], values: &[(Vec3, Vec3)]) -> String {
     let mut s = String::from(HEADER);

@@ -1,4 +1,8 @@
-//! The `meshrad` command line: `solve` (the default), `probe`, `devices`.
+//! The `meshrad` command line: `solve` (the default), `probe`, `devices`, `reference`,
+//! `bench`.
+
+mod bench;
+mod reference;
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -40,6 +44,11 @@ enum Command {
     Probe(ProbeArgs),
     /// List the Vulkan devices, their drivers, and whether meshrad can use them.
     Devices,
+    /// Brute-force Monte Carlo reference (no hierarchy) at points or from the camera.
+    Reference(reference::ReferenceArgs),
+    /// Benchmarks: run time against error, the paper's Table 2.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 /// Where the transport runs.
@@ -136,6 +145,8 @@ pub fn main() -> ExitCode {
         Some(Command::Solve(a)) => solve_cmd(a),
         Some(Command::Probe(a)) => probe_cmd(a),
         Some(Command::Devices) => devices_cmd(),
+        Some(Command::Reference(a)) => reference::run(a),
+        Some(Command::Bench(b)) => bench::run(b),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,333 @@
+//! `meshrad bench accuracy`: run time against error. For each scene, probe points on the
+//! lit surfaces get a Monte Carlo reference (cut after the scene's bounces, like the
+//! solver); then solver configurations are swept — variant × rays per integral, and one
+//! parameter at a time around the scene's defaults (coarsest count, levels, gather
+//! levels, sender level, oracle threshold) — on each backend, and brute-force path
+//! tracing at increasing sample counts gives the baseline. Output: a CSV, a PNG plot of
+//! error against time with the Pareto front, and the times to reach 5 % and 2 %.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec3;
+use serde::Serialize;
+
+use super::{measure, probes_for, reference_at};
+use crate::error::{Error, Result};
+use crate::gpu::Context;
+use crate::hierarchy::Hierarchy;
+use crate::metrics::{indirect_error, ErrorStats};
+use crate::params::{SolverParams, Variant};
+use crate::progress::Progress;
+use crate::reference::{self, ReferenceOptions};
+use crate::scene::Scene;
+
+/// Options of a sweep.
+#[derive(Clone, Debug)]
+pub struct AccuracyOptions {
+    pub probes: usize,
+    pub reference_samples: u32,
+    /// Path-tracing baseline sample counts per point.
+    pub pathtrace_samples: Vec<u32>,
+    /// A reduced sweep (CI).
+    pub quick: bool,
+}
+
+/// One measured point of the plot.
+#[derive(Clone, Debug, Serialize)]
+pub struct Row {
+    pub scene: String,
+    pub method: String,
+    pub backend: String,
+    pub variant: String,
+    pub label: String,
+    pub rays: u32,
+    pub levels: u32,
+    pub coarsest: u32,
+    pub gather_levels: u32,
+    pub sender_level: u32,
+    pub eps_rel: f32,
+    /// Solve time (direct + bounces; for path tracing, the camera image's pixel count
+    /// times the measured cost per probe point).
+    pub seconds: f64,
+    pub seconds_kernels: f64,
+    pub seconds_hierarchy: f64,
+    pub integrals: u64,
+    pub rays_traced: u64,
+    pub error: ErrorStats,
+    pub pareto: bool,
+}
+
+/// The configurations swept around `base`: (label, parameters).
+pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverParams)> {
+    let mut out = Vec::new();
+    let with = |label: String, f: &dyn Fn(&mut SolverParams)| {
+        let mut p = base.clone();
+        f(&mut p);
+        (label, p)
+    };
+    let rays: &[u32] = if quick {
+        &[32, 128]
+    } else {
+        &[32, 64, 128, 256, 512, 1024]
+    };
+    for v in Variant::ALL {
+        for &r in rays {
+            out.push(with(format!("{} rays={r}", v.name()), &|p| {
+                p.variant = v;
+                p.rays = r;
+            }));
+        }
+    }
+    if quick {
+        return out;
+    }
+    for v in [Variant::Modified, Variant::Approx] {
+        let n0 = base.coarsest;
+        for c in [n0 / 2, n0 * 2] {
+            out.push(with(format!("{} coarsest={c}", v.name()), &|p| {
+                p.variant = v;
+                p.coarsest = c.max(1);
+            }));
+        }
+        for g in [2, 4] {
+            if g <= base.levels {
+                out.push(with(format!("{} gather_levels={g}", v.name()), &|p| {
+                    p.variant = v;
+                    p.gather_levels = g;
+                }));
+            }
+        }
+        for s in [base.sender_level.saturating_sub(1), base.sender_level + 1] {
+            if s < base.levels && s != base.sender_level {
+                out.push(with(format!("{} sender_level={s}", v.name()), &|p| {
+                    p.variant = v;
+                    p.sender_level = s;
+                }));
+            }
+        }
+        for e in [0.03f32, 0.3] {
+            out.push(with(format!("{} eps_rel={e}", v.name()), &|p| {
+                p.variant = v;
+                p.eps_rel = e;
+            }));
+        }
+        // Combinations towards high accuracy: more nodes everywhere, more levels gathered.
+        for (c, g, r) in [(2, 4, 256), (2, 4, 512), (4, 4, 512)] {
+            let c = base.coarsest * c;
+            let g = g.min(base.levels);
+            out.push(with(
+                format!("{} coarsest={c} gather_levels={g} rays={r}", v.name()),
+                &|p| {
+                    p.variant = v;
+                    p.coarsest = c;
+                    p.gather_levels = g;
+                    p.rays = r;
+                },
+            ));
+        }
+        for l in [base.levels - 1, base.levels + 1] {
+            if (base.sender_level.min(l - 1) + 1..=crate::params::MAX_LEVELS).contains(&l) && l != base.levels {
+                out.push(with(format!("{} levels={l}", v.name()), &|p| {
+                    p.variant = v;
+                    p.levels = l;
+                    p.sender_level = p.sender_level.min(l - 1);
+                    p.gather_levels = p.gather_levels.min(l);
+                }));
+            }
+        }
+    }
+    out
+}
+
+/// Marks the Pareto front (no other row of the scene is both faster and more accurate).
+pub fn mark_pareto(rows: &mut [Row]) {
+    let snapshot: Vec<(String, f64, f64)> = rows
+        .iter()
+        .map(|r| (r.scene.clone(), r.seconds, r.error.rel_rms))
+        .collect();
+    for r in rows.iter_mut() {
+        r.pareto = !snapshot.iter().any(|(s, t, e)| {
+            *s == r.scene && *t <= r.seconds && *e <= r.error.rel_rms && (*t < r.seconds || *e < r.error.rel_rms)
+        });
+    }
+}
+
+/// Runs the sweep for one scene on the given backends (`None` = CPU).
+pub fn sweep(
+    name: &str,
+    scene: &mut Scene,
+    backends: &[Option<Arc<Context>>],
+    opts: &AccuracyOptions,
+    dir: &Path,
+    progress: &Progress,
+) -> Result<Vec<Row>> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
+    let base = scene.params.clone();
+    let probes = probes_for(scene, opts.probes, 0xacc);
+    let ref_opts = ReferenceOptions {
+        samples: opts.reference_samples,
+        max_bounces: base.bounces,
+        ..Default::default()
+    };
+    let (reference, _) = reference_at(
+        scene,
+        &probes,
+        &ref_opts,
+        &dir.join(format!("{name}-reference.csv")),
+        progress,
+    )?;
+    let mut rows = Vec::new();
+    let mut hierarchies: Vec<(String, Hierarchy, f64)> = Vec::new();
+    for (label, params) in configurations(&base, opts.quick) {
+        scene.params = params.clone();
+        let key = format!("{}|{}", params.levels, params.coarsest);
+        if !hierarchies.iter().any(|(k, _, _)| *k == key) {
+            progress.stage(&format!("{name}: hierarchy {key}"));
+            let t = Instant::now();
+            let h = Hierarchy::build(scene, &Progress::hidden())?;
+            hierarchies.push((key.clone(), h, t.elapsed().as_secs_f64()));
+        }
+        let (_, h, th) = hierarchies.iter().find(|(k, _, _)| *k == key).expect("built above");
+        for ctx in backends {
+            progress.stage(&format!(
+                "{name}: {label} on {}",
+                ctx.as_ref().map_or("cpu".into(), |c| c.info.name.clone())
+            ));
+            let (m, _) = measure(scene, h, ctx.clone(), &probes, ctx.is_some(), &Progress::hidden())?;
+            rows.push(Row {
+                scene: name.into(),
+                method: "meshrad".into(),
+                backend: m.backend.clone(),
+                variant: params.variant.name().into(),
+                label: label.clone(),
+                rays: params.rays,
+                levels: params.levels,
+                coarsest: params.coarsest,
+                gather_levels: params.gather_levels,
+                sender_level: params.sender_level,
+                eps_rel: params.eps_rel,
+                seconds: m.seconds,
+                seconds_kernels: m.seconds_kernels,
+                seconds_hierarchy: *th,
+                integrals: m.integrals,
+                rays_traced: m.rays,
+                error: indirect_error(&m.values, &reference),
+                pareto: false,
+            });
+        }
+    }
+    scene.params = base.clone();
+    // Path tracing: the same points, independent seeds, increasing samples.
+    let pts: Vec<(Vec3, Vec3)> = probes.iter().map(|q| (q.p, q.n)).collect();
+    let pixels = (scene.camera.width * scene.camera.height) as f64;
+    for &spp in &opts.pathtrace_samples {
+        progress.stage(&format!("{name}: path tracing {spp} samples"));
+        let o = ReferenceOptions {
+            samples: spp,
+            max_bounces: base.bounces,
+            seed: 0xba5e + spp as u64,
+            ..Default::default()
+        };
+        let t = Instant::now();
+        let est = reference::indirect_many(scene, &pts, &o);
+        let per_point = t.elapsed().as_secs_f64() / pts.len() as f64;
+        let values: Vec<Vec3> = est.iter().map(|e| e.mean.as_vec3()).collect();
+        rows.push(Row {
+            scene: name.into(),
+            method: "pathtrace".into(),
+            backend: "cpu".into(),
+            variant: "-".into(),
+            label: format!("path tracing {spp} spp"),
+            rays: spp,
+            levels: 0,
+            coarsest: 0,
+            gather_levels: 0,
+            sender_level: 0,
+            eps_rel: 0.0,
+            seconds: per_point * pixels,
+            seconds_kernels: 0.0,
+            seconds_hierarchy: 0.0,
+            integrals: pts.len() as u64,
+            rays_traced: 0,
+            error: indirect_error(&values, &reference),
+            pareto: false,
+        });
+    }
+    mark_pareto(&mut rows);
+    Ok(rows)
+}
+
+/// The CSV of a sweep.
+pub fn csv(rows: &[Row]) -> String {
+    let mut s = String::from(
+        "scene,method,backend,variant,label,rays,levels,coarsest,gather_levels,sender_level,eps_rel,seconds,\
+         seconds_kernels,seconds_hierarchy,integrals,rays_traced,rel_rms,max_rel,reference_noise,points,pareto\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{}",
+            r.scene,
+            r.method,
+            r.backend.replace(',', ";"),
+            r.variant,
+            r.label,
+            r.rays,
+            r.levels,
+            r.coarsest,
+            r.gather_levels,
+            r.sender_level,
+            r.eps_rel,
+            r.seconds,
+            r.seconds_kernels,
+            r.seconds_hierarchy,
+            r.integrals,
+            r.rays_traced,
+            r.error.rel_rms,
+            r.error.max_rel,
+            r.error.reference_noise,
+            r.error.points,
+            r.pareto
+        );
+    }
+    s
+}
+
+/// The least time any row of a method (and variant) reached each target error with;
+/// `None` when none did.
+pub fn time_to_reach(rows: &[Row], targets: &[f64]) -> Vec<(String, Vec<Option<f64>>)> {
+    let mut groups: Vec<String> = Vec::new();
+    for r in rows {
+        let g = group(r);
+        if !groups.contains(&g) {
+            groups.push(g);
+        }
+    }
+    groups
+        .into_iter()
+        .map(|g| {
+            let times = targets
+                .iter()
+                .map(|&t| {
+                    rows.iter()
+                        .filter(|r| group(r) == g && r.error.rel_rms <= t)
+                        .map(|r| r.seconds)
+                        .min_by(f64::total_cmp)
+                })
+                .collect();
+            (g, times)
+        })
+        .collect()
+}
+
+/// The series a row belongs to in the plot and the summary.
+pub fn group(r: &Row) -> String {
+    if r.method == "pathtrace" {
+        "path tracing".into()
+    } else {
+        format!("{} {}", r.variant, if r.backend == "cpu" { "cpu" } else { "gpu" })
+    }
+}

@@ -1,0 +1,184 @@
+//! Benchmarks a user can rerun (`meshrad bench ...`): run time against error
+//! ([`accuracy`]) and the paper's Table 2 ([`table2`]). Shared here: probe points on the
+//! lit surfaces, the cached Monte Carlo reference at them, and a timed solve.
+
+pub mod accuracy;
+pub mod plot;
+pub mod table2;
+
+use std::path::Path;
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::geom::transform::{xform_point, xform_vector};
+use crate::gpu::{Context, GpuBackend};
+use crate::hierarchy::{poisson, Hierarchy};
+use crate::output::probe::{self, Probe};
+use crate::progress::Progress;
+use crate::reference::{self, Estimate, ReferenceOptions};
+use crate::scene::{reach, Scene};
+use crate::transport::{self, cpu::CpuBackend, Solution};
+
+/// `n` probe points uniform by area on the surfaces light reaches (world space).
+pub fn probes_for(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
+    let p = &scene.params;
+    let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
+    // World areas per object, to split the points.
+    let areas: Vec<f64> = scene
+        .objects
+        .iter()
+        .map(|o| {
+            let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
+            let s = o.transform.scale as f64;
+            poisson::reachable_area(&scene.tris[r.clone()], &sides[r.start * 2..r.end * 2]) * s * s
+        })
+        .collect();
+    let total: f64 = areas.iter().sum();
+    let mut out = Vec::with_capacity(n);
+    let mut given = 0usize;
+    for (i, o) in scene.objects.iter().enumerate() {
+        let want = if i + 1 == scene.objects.len() {
+            n - given
+        } else {
+            ((areas[i] / total) * n as f64).round() as usize
+        };
+        given += want;
+        let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
+        for c in poisson::candidates(
+            &scene.tris[r.clone()],
+            &sides[r.start * 2..r.end * 2],
+            want,
+            seed ^ i as u64,
+        ) {
+            out.push(Probe {
+                p: xform_point(&o.to_world, c.pos),
+                n: xform_vector(&o.to_world, c.normal).normalize(),
+            });
+        }
+    }
+    out
+}
+
+/// The reference at the probes, read from `cache` when it was computed with the same
+/// probes and options, else computed and written there.
+pub fn reference_at(
+    scene: &Scene,
+    probes: &[Probe],
+    opts: &ReferenceOptions,
+    cache: &Path,
+    progress: &Progress,
+) -> Result<(Vec<Estimate>, f64)> {
+    let key = format!(
+        "# meshrad reference samples={} max_bounces={} seed={}",
+        opts.samples, opts.max_bounces, opts.seed
+    );
+    if let Ok(text) = std::fs::read_to_string(cache) {
+        if let Some(est) = parse_cached(&text, &key, probes) {
+            return Ok((est, 0.0));
+        }
+    }
+    progress.stage(&format!("reference: {} points × {} paths", probes.len(), opts.samples));
+    let t = Instant::now();
+    let pts: Vec<(Vec3, Vec3)> = probes.iter().map(|q| (q.p, q.n)).collect();
+    let est = reference::indirect_many(scene, &pts, opts);
+    let secs = t.elapsed().as_secs_f64();
+    let direct: Vec<Vec3> = probes.iter().map(|q| scene.direct(q.p, q.n)).collect();
+    let text = format!("{key}\n{}", probe::reference_csv(probes, &direct, &est));
+    std::fs::write(cache, text).map_err(|e| Error::io(cache, e))?;
+    Ok((est, secs))
+}
+
+fn parse_cached(text: &str, key: &str, probes: &[Probe]) -> Option<Vec<Estimate>> {
+    let mut lines = text.lines();
+    if lines.next()? != key || lines.next()? != probe::REFERENCE_HEADER {
+        return None;
+    }
+    let mut out = Vec::new();
+    for (line, q) in lines.zip(probes) {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse().ok()).collect::<Option<_>>()?;
+        if v.len() != 18
+            || (Vec3::new(v[0] as f32, v[1] as f32, v[2] as f32) - q.p).length() > 1e-3 * (1.0 + q.p.length())
+        {
+            return None;
+        }
+        out.push(Estimate {
+            mean: DVec3::new(v[9], v[10], v[11]),
+            std_err: DVec3::new(v[15], v[16], v[17]),
+        });
+    }
+    (out.len() == probes.len()).then_some(out)
+}
+
+/// A timed solve.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct Measured {
+    pub backend: String,
+    /// Direct pass plus all bounces, wall clock (the paper's "total time").
+    pub seconds: f64,
+    /// Wall clock of each bounce.
+    pub bounce_seconds: Vec<f64>,
+    /// Sum of the GPU kernels' timestamps (GPU only).
+    pub seconds_kernels: f64,
+    /// Upload and pipeline creation (GPU only; preprocessing).
+    pub seconds_setup: f64,
+    pub integrals: u64,
+    pub rays: u64,
+    /// Indirect irradiance at the probes.
+    #[serde(skip)]
+    pub values: Vec<Vec3>,
+}
+
+/// Solves `scene` with hierarchy `h` on the CPU (`ctx = None`) or a GPU and evaluates the
+/// probes. With `warmup`, a first solve on the same backend is discarded (lavapipe
+/// compiles pipelines at their first dispatch).
+pub fn measure(
+    scene: &Scene,
+    h: &Hierarchy,
+    ctx: Option<Arc<Context>>,
+    probes: &[Probe],
+    warmup: bool,
+    progress: &Progress,
+) -> Result<(Measured, Solution)> {
+    let hidden = Progress::hidden();
+    let (sol, backend, setup) = match ctx {
+        Some(ctx) => {
+            let t = Instant::now();
+            let mut b = GpuBackend::new(ctx, scene, h)?;
+            let setup = t.elapsed().as_secs_f64();
+            if warmup {
+                transport::solve(scene, &mut b, &hidden)?;
+            }
+            let s = transport::solve(scene, &mut b, progress)?;
+            (s, b.report.device.clone(), setup)
+        }
+        None => {
+            let mut b = CpuBackend::new(scene, h, &hidden);
+            (transport::solve(scene, &mut b, progress)?, "cpu".to_string(), 0.0)
+        }
+    };
+    let st = &sol.stats;
+    let level = scene.params.output_level();
+    let values = probes
+        .iter()
+        .map(|q| sol.indirect_at(scene, h, q.p, q.n, level).max(Vec3::ZERO))
+        .collect();
+    let m = Measured {
+        backend: if backend == "cpu" {
+            backend
+        } else {
+            format!("gpu ({backend})")
+        },
+        seconds: st.seconds_direct + st.seconds_init + st.seconds_bounces,
+        bounce_seconds: st.bounces.iter().map(|b| b.seconds).collect(),
+        seconds_kernels: st.kernel_seconds.iter().map(|(_, t)| t).sum(),
+        seconds_setup: setup,
+        integrals: st.integrals,
+        rays: st.rays_traced,
+        values,
+    };
+    Ok((m, sol))
+}

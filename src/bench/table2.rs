@@ -1,0 +1,303 @@
+//! `meshrad bench table2`: the paper's Table 2 on our scenes — CPU original (the CPU
+//! reference, delta hierarchy), GPU direct (delta hierarchy, exact reconstruction), GPU
+//! modified (absolute, exact) and GPU approx (absolute, first leaf) — with bounce times,
+//! integrals, total time, speedup, rays/s and the error of each column against the Monte
+//! Carlo reference. Preprocessing (loading with BVH build, hierarchy, GPU upload and
+//! pipelines) is reported on its own rows, as the paper leaves it out.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::{measure, probes_for, reference_at, Measured};
+use crate::error::{Error, Result};
+use crate::gpu::Context;
+use crate::hierarchy::Hierarchy;
+use crate::metrics::{indirect_error, ErrorStats};
+use crate::params::Variant;
+use crate::progress::Progress;
+use crate::reference::ReferenceOptions;
+use crate::scene::{Scene, Source};
+
+/// A scene of the table: the Cornell box is embedded; the others are TOML files (which
+/// read their meshes from `../shared/scenes`). `coarsest` is the paper's Table 1 count.
+#[derive(Clone, Debug)]
+pub struct SceneSpec {
+    pub name: &'static str,
+    pub file: Option<&'static str>,
+    pub tessellate: u32,
+    pub coarsest: u32,
+}
+
+/// The table's scenes: Cornell, Cornell + Buddha (100k and tessellated to 1.6M triangles,
+/// the paper's stress test), Sponza.
+pub const SCENES: [SceneSpec; 4] = [
+    SceneSpec {
+        name: "cornell",
+        file: None,
+        tessellate: 0,
+        coarsest: 226,
+    },
+    SceneSpec {
+        name: "buddha",
+        file: Some("cornell_buddha.toml"),
+        tessellate: 0,
+        coarsest: 582,
+    },
+    SceneSpec {
+        name: "buddha1m",
+        file: Some("cornell_buddha.toml"),
+        tessellate: 2,
+        coarsest: 582,
+    },
+    SceneSpec {
+        name: "sponza",
+        file: Some("sponza.toml"),
+        tessellate: 0,
+        coarsest: 1438,
+    },
+];
+
+/// Options of a table run.
+#[derive(Clone, Debug)]
+pub struct TableOptions {
+    /// Where `cornell_buddha.toml` and `sponza.toml` live.
+    pub scene_dir: PathBuf,
+    pub probes: usize,
+    pub reference_samples: u32,
+    /// Leave out the CPU column (it takes minutes on the big scenes).
+    pub skip_cpu: bool,
+    /// A tiny version for CI: fewer levels, rays and bounces.
+    pub smoke: bool,
+}
+
+/// One column of one scene.
+#[derive(Clone, Debug, Serialize)]
+pub struct Column {
+    pub name: String,
+    pub measured: Measured,
+    pub error: ErrorStats,
+}
+
+/// One scene's table.
+#[derive(Clone, Debug, Serialize)]
+pub struct SceneTable {
+    pub name: String,
+    pub triangles: usize,
+    pub nodes_per_level: Vec<u32>,
+    pub coarsest: u32,
+    pub rays: u32,
+    pub bounces: u32,
+    pub seconds_load_bvh: f64,
+    pub seconds_hierarchy: f64,
+    pub seconds_reference: f64,
+    pub columns: Vec<Column>,
+}
+
+/// Loads a spec's scene with the paper's Table 1 parameters (6 levels, sender level 4,
+/// 3 gathered levels, 512 rays, 6 bounces, the scene's coarsest count), or tiny ones.
+pub fn load(spec: &SceneSpec, dir: &Path, smoke: bool) -> Result<Scene> {
+    let table1: [(&str, i64); 6] = if smoke {
+        [
+            ("levels", 4),
+            ("sender_level", 3),
+            ("gather_levels", 3),
+            ("rays", 64),
+            ("bounces", 3),
+            ("coarsest", 120),
+        ]
+    } else {
+        [
+            ("levels", 6),
+            ("sender_level", 4),
+            ("gather_levels", 3),
+            ("rays", 512),
+            ("bounces", 6),
+            ("coarsest", spec.coarsest as i64),
+        ]
+    };
+    let mut overrides: Vec<(String, toml::Value)> = table1
+        .iter()
+        .map(|&(k, v)| (k.to_string(), toml::Value::Integer(v)))
+        .collect();
+    overrides.push(("stop_threshold".into(), toml::Value::Float(0.0)));
+    match spec.file {
+        None => Scene::embedded_cornell(&overrides),
+        Some(f) => {
+            let path = dir.join(f);
+            let text = std::fs::read_to_string(&path).map_err(|e| Error::io(&path, e))?;
+            let text = if spec.tessellate > 0 {
+                text.replacen(
+                    "[[object]]\n",
+                    &format!("[[object]]\ntessellate = {}\n", spec.tessellate),
+                    1,
+                )
+            } else {
+                text
+            };
+            let base = path.parent().map(Path::to_path_buf).unwrap_or_default();
+            Scene::from_toml(&text, &path, Source::Dir(base), &overrides)
+        }
+    }
+}
+
+/// Runs the table for one scene.
+pub fn run_scene(
+    spec: &SceneSpec,
+    gpu: Option<Arc<Context>>,
+    opts: &TableOptions,
+    cache_dir: &Path,
+    progress: &Progress,
+) -> Result<SceneTable> {
+    progress.stage(&format!("{}: loading", spec.name));
+    let t = Instant::now();
+    let mut scene = load(spec, &opts.scene_dir, opts.smoke)?;
+    let seconds_load_bvh = t.elapsed().as_secs_f64();
+    progress.stage(&format!("{}: hierarchy", spec.name));
+    let t = Instant::now();
+    let h = Hierarchy::build(&scene, &Progress::hidden())?;
+    let seconds_hierarchy = t.elapsed().as_secs_f64();
+    let probes = probes_for(&scene, opts.probes, 0x7ab1e2);
+    let ref_opts = ReferenceOptions {
+        samples: opts.reference_samples,
+        max_bounces: scene.params.bounces,
+        ..Default::default()
+    };
+    std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
+    let cache = cache_dir.join(format!(
+        "{}{}-reference.csv",
+        spec.name,
+        if opts.smoke { "-smoke" } else { "" }
+    ));
+    let (reference, seconds_reference) = reference_at(&scene, &probes, &ref_opts, &cache, progress)?;
+    let mut columns = Vec::new();
+    let mut plan: Vec<(&str, Option<Arc<Context>>, Variant)> = Vec::new();
+    if !opts.skip_cpu {
+        plan.push(("CPU original", None, Variant::Original));
+    }
+    if let Some(c) = &gpu {
+        plan.push(("GPU direct", Some(c.clone()), Variant::Original));
+        plan.push(("GPU modified", Some(c.clone()), Variant::Modified));
+        plan.push(("GPU approx", Some(c.clone()), Variant::Approx));
+    }
+    for (name, ctx, variant) in plan {
+        progress.stage(&format!("{}: {name}", spec.name));
+        scene.params.variant = variant;
+        let warm = ctx.is_some();
+        let (m, _) = measure(&scene, &h, ctx, &probes, warm, &Progress::hidden())?;
+        let error = indirect_error(&m.values, &reference);
+        columns.push(Column {
+            name: name.into(),
+            measured: m,
+            error,
+        });
+    }
+    Ok(SceneTable {
+        name: spec.name.into(),
+        triangles: scene.triangle_count(),
+        nodes_per_level: h.stats.nodes_per_level.clone(),
+        coarsest: scene.params.coarsest,
+        rays: scene.params.rays,
+        bounces: scene.params.bounces,
+        seconds_load_bvh,
+        seconds_hierarchy,
+        seconds_reference,
+        columns,
+    })
+}
+
+fn secs(s: f64) -> String {
+    if s >= 60.0 {
+        format!("{}m {:.0}s", (s / 60.0).floor(), s % 60.0)
+    } else if s >= 1.0 {
+        format!("{s:.2} s")
+    } else {
+        format!("{:.1} ms", s * 1e3)
+    }
+}
+
+/// The table as Markdown: one block per scene, the paper's rows.
+pub fn markdown(tables: &[SceneTable]) -> String {
+    let mut s = String::new();
+    for t in tables {
+        let _ = writeln!(
+            s,
+            "\n**{}** — {} triangles, nodes per level {:?}, {} rays per integral, {} bounces\n",
+            t.name, t.triangles, t.nodes_per_level, t.rays, t.bounces
+        );
+        let _ = write!(s, "| |");
+        for c in &t.columns {
+            let _ = write!(s, " {} |", c.name);
+        }
+        let _ = write!(s, "\n|---|");
+        for _ in &t.columns {
+            let _ = write!(s, "---|");
+        }
+        s.push('\n');
+        for b in 0..3 {
+            let _ = write!(s, "| {}. bounce |", b + 1);
+            for c in &t.columns {
+                let _ = write!(
+                    s,
+                    " {} |",
+                    c.measured.bounce_seconds.get(b).map_or("-".into(), |&x| secs(x))
+                );
+            }
+            s.push('\n');
+        }
+        let base = t.columns.first().map(|c| c.measured.seconds).unwrap_or(0.0);
+        let row = |s: &mut String, label: &str, f: &dyn Fn(&Column) -> String| {
+            let _ = write!(s, "| {label} |");
+            for c in &t.columns {
+                let _ = write!(s, " {} |", f(c));
+            }
+            s.push('\n');
+        };
+        row(&mut s, "integrals", &|c| format!("{}", c.measured.integrals));
+        row(&mut s, &format!("total ({} bounces)", t.bounces), &|c| {
+            secs(c.measured.seconds)
+        });
+        row(
+            &mut s,
+            &format!("speedup vs {}", t.columns.first().map_or("-", |c| &c.name)),
+            &|c| format!("{:.1}x", base / c.measured.seconds.max(1e-12)),
+        );
+        row(&mut s, "Mrays/s (bounces)", &|c| {
+            let bounce_time: f64 = c.measured.bounce_seconds.iter().sum();
+            format!("{:.1}", c.measured.rays as f64 / bounce_time.max(1e-12) / 1e6)
+        });
+        row(&mut s, "GPU kernel time", &|c| {
+            if c.measured.seconds_kernels > 0.0 {
+                secs(c.measured.seconds_kernels)
+            } else {
+                "-".into()
+            }
+        });
+        row(&mut s, "rel. RMS error vs reference", &|c| {
+            format!("{:.2} %", c.error.rel_rms * 100.0)
+        });
+        row(&mut s, "max rel. error", &|c| {
+            format!("{:.1} %", c.error.max_rel * 100.0)
+        });
+        row(&mut s, "GPU upload + pipelines", &|c| {
+            if c.measured.seconds_setup > 0.0 {
+                secs(c.measured.seconds_setup)
+            } else {
+                "-".into()
+            }
+        });
+        let _ = writeln!(
+            s,
+            "\nPreprocessing (not in the totals, as in the paper): load + BVH {}, hierarchy {}. \
+             Reference noise {:.2} % over {} probe points.",
+            secs(t.seconds_load_bvh),
+            secs(t.seconds_hierarchy),
+            t.columns.first().map_or(0.0, |c| c.error.reference_noise * 100.0),
+            t.columns.first().map_or(0, |c| c.error.points)
+        );
+    }
+    s
+}

@@ -1,0 +1,129 @@
+//! `meshrad reference`: the brute-force Monte Carlo reference at probe points (CSV, same
+//! columns as `probe` plus standard errors) or from the camera (images).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::{Context as _, Result};
+use clap::Args;
+use glam::Vec3;
+use rayon::prelude::*;
+
+use crate::output::{self, image, probe};
+use crate::progress::Progress;
+use crate::reference::{self, ReferenceOptions};
+use crate::scene::Scene;
+
+#[derive(Args, Debug)]
+pub struct ReferenceArgs {
+    /// Scene file (TOML).
+    scene: PathBuf,
+    /// Points file (`px py pz nx ny nz` per line): writes CSV.
+    #[arg(long, conflicts_with = "camera")]
+    points: Option<PathBuf>,
+    /// Render the scene's camera instead: writes direct/indirect/total images.
+    #[arg(long)]
+    camera: bool,
+    /// CSV file (points; default stdout) or directory (camera; default `out-reference`).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Paths per point (per pixel with --camera).
+    #[arg(long)]
+    samples: Option<u32>,
+    /// Bounces of the series (default: the scene's `[solver] bounces`; 0: unbounded with
+    /// Russian roulette).
+    #[arg(long)]
+    max_bounces: Option<u32>,
+    /// Seed (independent of the solver's).
+    #[arg(long, default_value_t = 0x5eed)]
+    seed: u64,
+    #[arg(long, short)]
+    quiet: bool,
+}
+
+pub fn run(a: ReferenceArgs) -> Result<()> {
+    let scene = Scene::load(&a.scene, &[])?;
+    let opts = ReferenceOptions {
+        samples: a.samples.unwrap_or(if a.camera { 256 } else { 16384 }).max(1),
+        max_bounces: a.max_bounces.unwrap_or(scene.params.bounces),
+        seed: a.seed,
+        ..Default::default()
+    };
+    let progress = Progress::new(a.quiet);
+    let t = Instant::now();
+    if let Some(points) = &a.points {
+        let probes = probe::read(points)?;
+        progress.stage(&format!("{} points × {} paths", probes.len(), opts.samples));
+        let pts: Vec<(Vec3, Vec3)> = probes.iter().map(|q| (q.p, q.n)).collect();
+        let est = reference::indirect_many(&scene, &pts, &opts);
+        let direct: Vec<Vec3> = probes.par_iter().map(|q| scene.direct(q.p, q.n)).collect();
+        let text = probe::reference_csv(&probes, &direct, &est);
+        progress.finish();
+        match &a.out {
+            Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
+            None => print!("{text}"),
+        }
+    } else if a.camera {
+        let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out-reference"));
+        output::ensure_dir(&dir)?;
+        progress.stage(&format!("camera, {} paths per pixel", opts.samples));
+        let img = render(&scene, &opts, &progress);
+        image::write_all(&dir, &img)?;
+        progress.finish();
+        if !a.quiet {
+            println!(
+                "reference images in {} ({:.1} s)",
+                dir.display(),
+                t.elapsed().as_secs_f64()
+            );
+        }
+    } else {
+        anyhow::bail!("give --points FILE or --camera");
+    }
+    Ok(())
+}
+
+/// Reference images: exact direct light and path-traced indirect irradiance per pixel.
+fn render(scene: &Scene, opts: &ReferenceOptions, progress: &Progress) -> image::Images {
+    let cam = &scene.camera;
+    let (w, h) = (cam.width as usize, cam.height as usize);
+    let bar = progress.bar(h as u64, "reference image");
+    let inner = ReferenceOptions {
+        samples: opts.samples,
+        ..*opts
+    };
+    let rows: Vec<(Vec<Vec3>, Vec<Vec3>)> = (0..h)
+        .into_par_iter()
+        .map(|y| {
+            let mut d = Vec::with_capacity(w);
+            let mut i = Vec::with_capacity(w);
+            for x in 0..w {
+                let ray = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+                match scene.intersect(&ray, f32::INFINITY) {
+                    Some(hit) => {
+                        let s = scene.surface(&hit, ray.d);
+                        let k = s.albedo / std::f32::consts::PI;
+                        d.push(k * scene.direct(s.p, s.n));
+                        let e = reference::indirect(scene, s.p, s.n, &inner, (y * w + x) as u64);
+                        i.push(k * e.mean.as_vec3());
+                    }
+                    None => {
+                        d.push(Vec3::ZERO);
+                        i.push(Vec3::ZERO);
+                    }
+                }
+            }
+            bar.inc(1);
+            (d, i)
+        })
+        .collect();
+    bar.finish();
+    let (direct, indirect): (Vec<_>, Vec<_>) = rows.into_iter().unzip();
+    image::Images {
+        width: cam.width,
+        height: cam.height,
+        direct: direct.concat(),
+        indirect: indirect.concat(),
+        clamped: 0,
+    }
+}

@@ -1,0 +1,160 @@
+//! The benchmark and reference commands at CI size, on lavapipe for the GPU columns.
+
+mod common;
+
+use std::process::Command;
+
+fn meshrad(args: &[&str], dir: &std::path::Path) -> std::process::Output {
+    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run meshrad");
+    assert!(
+        o.status.success(),
+        "meshrad {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    );
+    o
+}
+
+#[test]
+fn table2_smoke() {
+    let dir = common::tmpdir();
+    let o = meshrad(
+        &["bench", "table2", "--smoke", "--scenes", "cornell", "--out", "t", "-q"],
+        dir.path(),
+    );
+    let text = String::from_utf8_lossy(&o.stdout);
+    for needle in [
+        "CPU original",
+        "GPU direct",
+        "GPU modified",
+        "GPU approx",
+        "1. bounce",
+        "3. bounce",
+        "integrals",
+        "speedup",
+        "Mrays/s",
+        "rel. RMS error vs reference",
+        "Preprocessing",
+    ] {
+        assert!(text.contains(needle), "missing `{needle}`:\n{text}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.path().join("t/table2.json")).unwrap()).unwrap();
+    let cols = json[0]["columns"].as_array().unwrap();
+    assert_eq!(cols.len(), 4);
+    // The delta hierarchy gives the same answer on both backends (same seed).
+    let (cpu, gpu) = (&cols[0]["error"]["rel_rms"], &cols[1]["error"]["rel_rms"]);
+    assert!(
+        (cpu.as_f64().unwrap() - gpu.as_f64().unwrap()).abs() < 1e-3,
+        "{cpu} vs {gpu}"
+    );
+    for c in cols {
+        let e = c["error"]["rel_rms"].as_f64().unwrap();
+        assert!(e > 0.0 && e < 0.5, "{c}");
+    }
+}
+
+#[test]
+fn accuracy_quick() {
+    let dir = common::tmpdir();
+    // The Cornell box at CI size.
+    let repo = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(repo.join("cornell_box.toml"))
+        .unwrap()
+        .replace(
+            "cornell_original_mm.obj",
+            repo.join("cornell_original_mm.obj").to_str().unwrap(),
+        )
+        .replace("levels = 6", "levels = 4")
+        .replace("sender_level = 4", "sender_level = 3")
+        .replace("bounces = 6", "bounces = 2")
+        .replace("coarsest = 226", "coarsest = 100");
+    std::fs::write(dir.path().join("cornell.toml"), text).unwrap();
+    let o = meshrad(
+        &[
+            "bench",
+            "accuracy",
+            "cornell.toml",
+            "--quick",
+            "--backend",
+            "both",
+            "--probes",
+            "32",
+            "--reference-samples",
+            "2000",
+            "--pathtrace",
+            "16,64",
+            "--out",
+            "a",
+            "-q",
+        ],
+        dir.path(),
+    );
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("time to 5 %") && text.contains("path tracing"), "{text}");
+    let csv = std::fs::read_to_string(dir.path().join("a/accuracy.csv")).unwrap();
+    let lines: Vec<&str> = csv.lines().collect();
+    // 3 variants × 2 ray counts × 2 backends + 2 path-tracing points.
+    assert_eq!(lines.len(), 1 + 12 + 2, "{csv}");
+    assert!(lines.iter().any(|l| l.ends_with(",true")), "a Pareto front");
+    let png = image::open(dir.path().join("a/cornell.png")).unwrap();
+    assert!(png.width() > 500);
+    // The cached reference is reused on a second run.
+    let cached = std::fs::read_to_string(dir.path().join("a/cornell-reference.csv")).unwrap();
+    assert!(cached.starts_with("# meshrad reference samples=2000"));
+}
+
+#[test]
+fn reference_command() {
+    let dir = common::tmpdir();
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    std::fs::write(dir.path().join("p.txt"), "278 0 279.6 0 1 0\n0 300 300 1 0 0\n").unwrap();
+    let o = meshrad(
+        &[
+            "reference",
+            scene.to_str().unwrap(),
+            "--points",
+            "p.txt",
+            "--samples",
+            "4000",
+            "-q",
+        ],
+        dir.path(),
+    );
+    let text = String::from_utf8_lossy(&o.stdout);
+    let mut lines = text.lines();
+    assert_eq!(lines.next().unwrap(), meshrad::output::probe::REFERENCE_HEADER);
+    for l in lines {
+        let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+        assert_eq!(v.len(), 18);
+        assert!(v[9] > 0.0 && v[15] > 0.0 && v[15] < 0.05 * v[9], "{l}");
+    }
+    let furnace = meshrad::analytic::furnace(dir.path(), 1.0, 3, 0.5, [0.0; 3], 1.0, "").unwrap();
+    meshrad(
+        &[
+            "reference",
+            furnace.to_str().unwrap(),
+            "--camera",
+            "--samples",
+            "4",
+            "--out",
+            "img",
+            "-q",
+        ],
+        dir.path(),
+    );
+    let exr = exr::prelude::read_first_rgba_layer_from_file(
+        dir.path().join("img/indirect.exr"),
+        |res, _| vec![0.0f32; res.width() * res.height()],
+        |px: &mut Vec<f32>, pos, (r, _g, _b, _a): (f32, f32, f32, f32)| px[pos.y() * 32 + pos.x()] = r,
+    )
+    .unwrap();
+    // Inside the furnace every pixel sees the wall: indirect radiance ρ/π E_ind(6 bounces).
+    let want = 0.5 / std::f32::consts::PI * meshrad::analytic::furnace_expected(1.0, 0.5, 1.0, 6).1 as f32;
+    let mean = exr.layer_data.channel_data.pixels.iter().sum::<f32>() / 1024.0;
+    assert!((mean - want).abs() < 0.03 * want, "{mean} vs {want}");
+}
