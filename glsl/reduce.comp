@@ -1,6 +1,7 @@
 // Kernel `reduce`: the Monte Carlo reduction on the GPU, one workgroup per integral:
 // mean and standard error of its N samples, summed in a fixed order (each thread a
-// strided run, then a tree in shared memory), so the result is deterministic on a device.
+// strided run, compensated, then a tree in shared memory), so the result is deterministic
+// on a device and a million samples sum to float32 precision.
 // The sums are taken about the first sample (a shift) so that the variance does not
 // cancel in float32. CPU twin: the tail of transport::cpu::gather_integral.
 #version 460
@@ -21,11 +22,17 @@ void main() {
     uint base = i * n_rays;
     Vec4Ref contrib = g.contrib;
     vec3 shift = contrib.v[base].xyz;
-    vec3 sum = vec3(0.0);
-    vec3 sq = vec3(0.0);
+    // Each thread's run is Kahan-compensated (`precise` keeps the compiler from
+    // simplifying the compensation away), then the tree adds 128 partial sums.
+    precise vec3 sum = vec3(0.0);
+    precise vec3 comp = vec3(0.0);
+    precise vec3 sq = vec3(0.0);
     for (uint r = gl_LocalInvocationID.x; r < n_rays; r += GATHER_GROUP) {
         vec3 c = contrib.v[base + r].xyz - shift;
-        sum += c;
+        precise vec3 y = c - comp;
+        precise vec3 t2 = sum + y;
+        comp = (t2 - sum) - y;
+        sum = t2;
         sq += c * c;
     }
     uint t = gl_LocalInvocationID.x;

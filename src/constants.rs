@@ -25,3 +25,5 @@ pub const VARIANT_APPROX: u32 = 2;
 /// BVH kinds as the GLSL specialization constant `BVH_KIND` sees them.
 pub const BVH_BVH2: u32 = 0;
 pub const BVH_CWBVH: u32 = 1;
+/// Clip-plane distances are stored as `d / CLIP_SCALE · h` (see hierarchy::weight).
+pub const CLIP_SCALE: u32 = 50000;

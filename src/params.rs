@@ -94,6 +94,8 @@ pub struct SolverParams {
     pub reach_bounces: u32,
     /// Candidates in a gap narrower than this many finest-level radii get no node (0: off).
     pub crevice_distance: f32,
+    /// Cut each node's support at surfaces standing across it (walls on a floor).
+    pub support_clip: bool,
     /// GPU: gathering integrals in flight per batch (0: sized from the device).
     pub batch_integrals: u32,
     /// GPU: the BVH layout traversed.
@@ -124,6 +126,7 @@ impl Default for SolverParams {
             reach_paths: 1 << 17,
             reach_bounces: 6,
             crevice_distance: 1.0,
+            support_clip: true,
             batch_integrals: 0,
             bvh: BvhKind::Bvh2,
         }
@@ -154,7 +157,7 @@ impl SolverParams {
         };
         range("levels", self.levels, 1, MAX_LEVELS)?;
         range("coarsest", self.coarsest, 1, 10_000_000)?;
-        range("rays", self.rays, 1, 1 << 16)?;
+        range("rays", self.rays, 1, 1 << 22)?;
         range("bounces", self.bounces, 0, 10_000)?;
         range("sender_level", self.sender_level, 0, self.levels - 1)?;
         range("gather_levels", self.gather_levels, 1, self.levels)?;

@@ -39,10 +39,10 @@ vec3 tri_point(Tri t, float b1, float b2) {
 
 vec3 offset_origin(vec3 p, vec3 n, float scale) {
     float near_ = scale * (1.0 / 32.0);
-    float fine = scale * (1.0 / 524288.0);
+    float fine = scale * (1.0 / 2097152.0);
     vec3 o;
     for (int i = 0; i < 3; i++) {
-        int of = int(256.0 * n[i]);
+        int of = int(32.0 * n[i]);
         int bits = floatBitsToInt(p[i]);
         float moved = intBitsToFloat(bits + (p[i] < 0.0 ? -of : of));
         o[i] = abs(p[i]) < near_ ? p[i] + fine * n[i] : moved;

@@ -5,6 +5,46 @@
 #define HIERARCHY_GLSL
 
 #include "layout.glsl"
+#include "sampling.glsl"
+
+// Twin of weight::direction8: the nearest of the 8 tangent directions at k·45°.
+uint direction8(float x, float y) {
+    const float T = 0.41421357;
+    if (abs(y) <= T * abs(x)) {
+        return x >= 0.0 ? 0u : 4u;
+    }
+    if (abs(x) <= T * abs(y)) {
+        return y >= 0.0 ? 2u : 6u;
+    }
+    return x >= 0.0 ? (y >= 0.0 ? 1u : 7u) : (y >= 0.0 ? 3u : 5u);
+}
+
+// Twin of weight::clip_ok. Words per plane: (ux | uy << 16), (d | mask << 16).
+bool clip_ok(uvec4 clip, vec3 v, vec3 n, float h) {
+    if ((clip.y & 0xffffu) == 0xffffu) {
+        return true;
+    }
+    vec3 t;
+    vec3 b;
+    onb(n, t, b);
+    float x = dot(v, t);
+    float y = dot(v, b);
+    uint k = direction8(x, y);
+    bool ok = true;
+    for (uint i = 0u; i < 2u; i++) {
+        uint u = i == 0u ? clip.x : clip.z;
+        uint dm = i == 0u ? clip.y : clip.w;
+        uint d = dm & 0xffffu;
+        if (d != 0xffffu && ((dm >> 16u) & (1u << k)) != 0u) {
+            float ux = float(bitfieldExtract(int(u), 0, 16)) * (1.0 / 32767.0);
+            float uy = float(bitfieldExtract(int(u), 16, 16)) * (1.0 / 32767.0);
+            if (x * ux + y * uy > float(d) * (1.0 / CLIP_SCALE) * h) {
+                ok = false;
+            }
+        }
+    }
+    return ok;
+}
 
 float node_weight(vec3 p, vec3 n, vec3 xj, vec3 nj, float h, float alpha) {
     float d = length(p - xj) / h + alpha * (1.0 - dot(n, nj));
@@ -41,7 +81,7 @@ vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref v
                 vec3 dx = nd.pos - p;
                 if (dot(dx, dx) < r2) {
                     float w = node_weight(p, n, nd.pos, nd.normal, h, alpha);
-                    if (w > 0.0) {
+                    if (w > 0.0 && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
                         acc += vec4(values.v[base + lo].xyz * w, w);
                     }
                 }
@@ -96,7 +136,7 @@ uint first_leaf(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, float cos_m
         }
         Node nd = nodes.v[base + lo];
         vec3 dx = nd.pos - p;
-        if (dot(dx, dx) < r2 && dot(n, nd.normal) > cos_min) {
+        if (dot(dx, dx) < r2 && dot(n, nd.normal) > cos_min && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
             found = lo;
         }
     }

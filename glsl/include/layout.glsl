@@ -60,6 +60,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Ref { v
 layout(buffer_reference, std430, buffer_reference_align = 8) buffer Vec2Ref { vec2 v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer FloatRef { float v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 4) buffer UintRef { uint v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer Uvec4Ref { uvec4 v[]; };
 
 // Everything a kernel can reach: src/gpu/globals.rs `Globals`.
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef {
@@ -76,6 +77,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     ObjectRef objects;
     NodeRef nodes;
     KdSplitRef splits;
+    Uvec4Ref clips;
     UintRef parent_offset;
     ParentRef parents;
     UintRef child_offset;

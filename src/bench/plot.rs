@@ -66,6 +66,8 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
         .configure_mesh()
         .x_desc("time to solution (s, log)")
         .y_desc("relative RMS error of indirect irradiance (log)")
+        .x_label_formatter(&|v| format!("{v:.3}"))
+        .y_label_formatter(&|v| format!("{:.1} %", v * 100.0))
         .label_style(("sans-serif", 15))
         .draw()
         .map_err(|e| err(Box::new(e)))?;

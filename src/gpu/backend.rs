@@ -138,6 +138,7 @@ impl<'a> GpuBackend<'a> {
             up("halton", bytemuck::cast_slice(&halton))?,
             up("cwbvh nodes", bytemuck::cast_slice(&scene.cw_nodes))?,
             up("cwbvh primitives", bytemuck::cast_slice(&scene.cw_prims))?,
+            up("support clips", bytemuck::cast_slice(&h.clips))?,
         ];
         let bytes_uploaded = scene_bufs.iter().map(|b| b.size).sum();
         let z = |name: &str, size: u64| Buffer::zeroed(&ctx, name, size);
@@ -185,6 +186,7 @@ impl<'a> GpuBackend<'a> {
             objects: s[8].address,
             nodes: s[9].address,
             splits: s[10].address,
+            clips: s[18].address,
             parent_offset: s[11].address,
             parents: s[12].address,
             child_offset: s[13].address,

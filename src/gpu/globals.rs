@@ -21,6 +21,7 @@ pub struct Globals {
     pub objects: u64,
     pub nodes: u64,
     pub splits: u64,
+    pub clips: u64,
     pub parent_offset: u64,
     pub parents: u64,
     pub child_offset: u64,
@@ -78,8 +79,8 @@ pub const HIT_BYTES: u64 = 16;
 pub const CONTRIB_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 33 * 8 + 14 * 4);
-    assert!(std::mem::offset_of!(Globals, num_objects) == 264);
-    assert!(std::mem::offset_of!(Globals, sender_level) == 312);
+    assert!(std::mem::size_of::<Globals>() == 34 * 8 + 14 * 4);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 272);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 320);
     assert!(std::mem::size_of::<Push>() == 32);
 };

@@ -80,10 +80,11 @@ pub fn range(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut f: impl Fn
     }
 }
 
-/// The first leaf met by a near-first descent for `p` whose node lies within `r` and has
-/// a normal with `n · n_j > cos_min` (paper §5.1): the approximate reconstruction.
+/// The first leaf met by a near-first descent for `p` whose node lies within `r` and that
+/// `ok(i)` accepts (normal agreement, support clip): the approximate reconstruction
+/// (paper §5.1).
 #[inline]
-pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, n: Vec3, r: f32, cos_min: f32) -> Option<usize> {
+pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, ok: impl Fn(usize) -> bool) -> Option<usize> {
     let mut found = None;
     let mut stack = [(0u32, 0u32); KD_STACK];
     let mut sp = usize::from(!nodes.is_empty());
@@ -92,14 +93,7 @@ pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, n: Vec3, r: f32, 
     while sp > 0 && found.is_none() {
         sp -= 1;
         let (mut lo, mut hi) = stack[sp];
-        loop {
-            if hi - lo == 1 {
-                let nd = &nodes[lo as usize];
-                if (Vec3::from(nd.pos) - p).length_squared() < r2 && n.dot(Vec3::from(nd.normal)) > cos_min {
-                    found = Some(lo as usize);
-                }
-                break;
-            }
+        while hi - lo > 1 {
             let mid = (lo + hi) / 2;
             let s = splits[mid as usize];
             let d = p[s.dim as usize] - s.value;
@@ -113,6 +107,10 @@ pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, n: Vec3, r: f32, 
                 sp += 1;
             }
             (lo, hi) = near;
+        }
+        let nd = &nodes[lo as usize];
+        if (Vec3::from(nd.pos) - p).length_squared() < r2 && ok(lo as usize) {
+            found = Some(lo as usize);
         }
     }
     found
@@ -162,8 +160,10 @@ mod tests {
         let mut splits = vec![KdSplit::default(); nodes.len()];
         build(&mut nodes, &mut splits);
         let p = Vec3::new(0.5, 0.5, 0.05);
-        let i = first_leaf(&nodes, &splits, p, Vec3::Z, 0.2, 0.5).unwrap();
+        let up = |i: usize| Vec3::from(nodes[i].normal).dot(Vec3::Z) > 0.5;
+        let i = first_leaf(&nodes, &splits, p, 0.2, up).unwrap();
         assert!((Vec3::from(nodes[i].pos) - p).length() < 0.2);
-        assert!(first_leaf(&nodes, &splits, p, -Vec3::Z, 0.2, 0.5).is_none());
+        let down = |i: usize| Vec3::from(nodes[i].normal).dot(-Vec3::Z) > 0.5;
+        assert!(first_leaf(&nodes, &splits, p, 0.2, down).is_none());
     }
 }

@@ -25,7 +25,114 @@ use crate::params::MAX_LEVELS;
 use crate::progress::Progress;
 use crate::scene::{reach, Scene};
 use poisson::Candidate;
-use weight::node_weight;
+use weight::{clip_ok, node_weight};
+
+/// Support clipping: from each node, 8 rays in its tangent plane (at k·45°), lifted 2 %
+/// of the support off the surface, look for surfaces standing across the support
+/// (`|n · n_hit| < 0.5`: a wall on the node's floor, not the node's own curved surface).
+/// The rays reach 1.1 h, so that the ray nearest the perpendicular (within 22.5°) finds
+/// any wall closer than h. The nearest two such planes (distinct directions) bound the
+/// support in the directions whose rays met them: points behind them get no weight, so
+/// light does not leak under walls into the room behind, while a finite obstacle (a box)
+/// only cuts the directions it covers (`weight::clip_ok`).
+fn support_clips(scene: &Scene, nodes: &[Node], objects: &[ObjectLevels], kappa: f32) -> Vec<weight::Clip> {
+    nodes
+        .par_iter()
+        .map(|nd| {
+            let o = nd.object as usize;
+            let obj = &scene.objects[o];
+            let h_obj = kappa * objects[o].radius[nd.level as usize];
+            let h = h_obj * obj.transform.scale;
+            let n_obj = Vec3::from(nd.normal);
+            let x_obj = Vec3::from(nd.pos);
+            let n = xform_vector(&obj.to_world, n_obj).normalize();
+            let x = xform_point(&obj.to_world, x_obj);
+            let origin = scene.offset(x, n) + n * (0.02 * h);
+            let (t, b) = onb(n_obj);
+            // Candidate planes: (quantised direction, distance as a fraction of h, the
+            // directions whose rays met it).
+            let mut planes: Vec<([i16; 2], f32, u8)> = Vec::new();
+            for k in 0..8 {
+                let a = k as f32 * std::f32::consts::FRAC_PI_4;
+                let d_obj = t * a.cos() + b * a.sin();
+                let d = xform_vector(&obj.to_world, d_obj).normalize();
+                let Some(hit) = scene.intersect(&Ray { o: origin, d }, 1.1 * h) else {
+                    continue;
+                };
+                let hit_obj = &scene.objects[hit.object as usize];
+                let tri = &scene.tris[hit.tri as usize];
+                let hn = xform_vector(&hit_obj.to_world, crate::geom::ray::tri_normal(tri)).normalize();
+                if hn.dot(n).abs() >= 0.5 {
+                    continue;
+                }
+                // The plane's normal in the node's tangent frame, pointing away from the node.
+                let hn_obj = xform_vector(&obj.to_object, hn);
+                let (mx, my) = (hn_obj.dot(t), hn_obj.dot(b));
+                let len = (mx * mx + my * my).sqrt();
+                if len < 1e-3 {
+                    continue;
+                }
+                let s = if mx * d_obj.dot(t) + my * d_obj.dot(b) < 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                };
+                let q = [
+                    (s * mx / len * weight::CLIP_DIR).round() as i16,
+                    (s * my / len * weight::CLIP_DIR).round() as i16,
+                ];
+                let (ux, uy) = (q[0] as f32 / weight::CLIP_DIR, q[1] as f32 / weight::CLIP_DIR);
+                let p_obj = xform_point(&obj.to_object, origin + d * hit.t) - x_obj;
+                let dist = (p_obj.dot(t) * ux + p_obj.dot(b) * uy) / h_obj;
+                if dist <= 0.0 {
+                    continue;
+                }
+                let bit = 1u8 << weight::direction8(d_obj.dot(t), d_obj.dot(b));
+                match planes.iter_mut().find(|(u, _, _)| {
+                    (u[0] as f32 * q[0] as f32 + u[1] as f32 * q[1] as f32) / (weight::CLIP_DIR * weight::CLIP_DIR)
+                        > 0.95
+                }) {
+                    Some(pl) => {
+                        pl.1 = pl.1.min(dist);
+                        pl.2 |= bit;
+                    }
+                    None => planes.push((q, dist, bit)),
+                }
+            }
+            // A plane met by ray k may also come within h in the neighbouring directions'
+            // sectors (±22.5° around k±1·45°) where those rays reached past h: add them.
+            for (q, dist, mask) in &mut planes {
+                let (ux, uy) = (q[0] as f32 / weight::CLIP_DIR, q[1] as f32 / weight::CLIP_DIR);
+                let len = (ux * ux + uy * uy).sqrt();
+                let hits = *mask;
+                for k in 0..8u32 {
+                    let near = hits & (1 << ((k + 1) % 8)) != 0 || hits & (1 << ((k + 7) % 8)) != 0;
+                    if hits & (1 << k) != 0 || !near {
+                        continue;
+                    }
+                    // Largest cosine between u and a direction of sector k.
+                    let centre = k as f32 * std::f32::consts::FRAC_PI_4;
+                    let (cx, cy) = (centre.cos(), centre.sin());
+                    let angle = ((cx * ux + cy * uy) / len).clamp(-1.0, 1.0).acos();
+                    let best = (angle - std::f32::consts::FRAC_PI_8).max(0.0).cos() * len;
+                    if best > 0.0 && *dist / best < 1.0 {
+                        *mask |= 1 << k;
+                    }
+                }
+            }
+            planes.sort_by(|a, b| a.1.total_cmp(&b.1));
+            let mut clip = weight::NO_CLIP;
+            for (k, (q, dist, mask)) in planes.iter().take(2).enumerate() {
+                let d = ((dist * weight::CLIP_SCALE).floor() as u32).min(0xfffe) as u16;
+                clip[8 * k..8 * k + 2].copy_from_slice(&q[0].to_le_bytes());
+                clip[8 * k + 2..8 * k + 4].copy_from_slice(&q[1].to_le_bytes());
+                clip[8 * k + 4..8 * k + 6].copy_from_slice(&d.to_le_bytes());
+                clip[8 * k + 6] = *mask;
+            }
+            clip
+        })
+        .collect()
+}
 
 /// Whether a candidate lies in a crevice: 7 of 8 stratified cosine-distributed rays from it
 /// hit something within `d_min` (world units). Such a point sits in a gap light does not
@@ -77,6 +184,9 @@ pub struct HierarchyStats {
     pub seconds_candidates: f64,
     pub seconds_poisson: f64,
     pub seconds_kdtree: f64,
+    pub seconds_clips: f64,
+    /// Nodes whose support a nearby surface cuts (a wall standing on their floor).
+    pub clipped_nodes: usize,
     pub seconds_parents: f64,
 }
 
@@ -88,6 +198,8 @@ pub struct Hierarchy {
     pub alpha: f32,
     pub nodes: Vec<Node>,
     pub splits: Vec<KdSplit>,
+    /// Per node, the free distance of its support in 8 tangent sectors (`weight::clip_ok`).
+    pub clips: Vec<weight::Clip>,
     /// Global start of each level (`levels + 1` entries).
     pub level_start: Vec<u32>,
     pub objects: Vec<ObjectLevels>,
@@ -261,12 +373,22 @@ impl Hierarchy {
         stats.seconds_kdtree = t.elapsed().as_secs_f64();
         stats.nodes_per_level = (0..m).map(|l| level_start[l + 1] - level_start[l]).collect();
 
+        let t = Instant::now();
+        progress.stage("support clipping");
+        let clips = if p.support_clip {
+            support_clips(scene, &nodes, &objects, p.kappa)
+        } else {
+            vec![weight::NO_CLIP; nodes.len()]
+        };
+        stats.seconds_clips = t.elapsed().as_secs_f64();
+        stats.clipped_nodes = clips.iter().filter(|c| **c != weight::NO_CLIP).count();
         let mut h = Hierarchy {
             levels: p.levels,
             kappa: p.kappa,
             alpha: p.alpha,
             nodes,
             splits,
+            clips,
             level_start,
             objects,
             parent_offset: Vec::new(),
@@ -304,27 +426,31 @@ impl Hierarchy {
         let h = self.support(o, l);
         kdtree::range(nodes, splits, p, h, |i| {
             let nd = &nodes[i];
-            let w = node_weight(p, n, Vec3::from(nd.pos), Vec3::from(nd.normal), h, self.alpha);
-            if w > 0.0 {
+            let (x, nj) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
+            let w = node_weight(p, n, x, nj, h, self.alpha);
+            if w > 0.0 && clip_ok(&self.clips[base + i], p - x, nj, h) {
                 f(base + i, w);
             }
         });
     }
 
-    /// The nearest node of (o, l) on the same side as `n` (n · n_j > 0), if any.
+    /// The nearest node of (o, l) on the same side as `n` (n · n_j > 0) whose clip planes
+    /// admit `p`, if any.
     pub fn nearest_same_side(&self, o: usize, l: usize, p: Vec3, n: Vec3) -> Option<usize> {
         let (nodes, splits, base) = self.level(o, l);
         if nodes.is_empty() {
             return None;
         }
-        let mut r = self.support(o, l);
+        let h = self.support(o, l);
+        let mut r = h;
         for _ in 0..40 {
             let mut best = None;
             let mut best_d = f32::INFINITY;
             kdtree::range(nodes, splits, p, r, |i| {
                 let nd = &nodes[i];
-                let d = (Vec3::from(nd.pos) - p).length_squared();
-                if n.dot(Vec3::from(nd.normal)) > 0.0 && d < best_d {
+                let (x, nj) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
+                let d = (x - p).length_squared();
+                if n.dot(nj) > 0.0 && d < best_d && clip_ok(&self.clips[base + i], p - x, nj, h) {
                     best_d = d;
                     best = Some(base + i);
                 }

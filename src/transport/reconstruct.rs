@@ -5,6 +5,7 @@
 
 use glam::{Vec3, Vec4, Vec4Swizzles};
 
+use crate::hierarchy::weight::clip_ok;
 use crate::hierarchy::{kdtree, Hierarchy};
 use crate::params::Variant;
 
@@ -50,7 +51,13 @@ pub fn delta_sum(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[
 pub fn approx(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4], cos_min: f32) -> Option<Vec3> {
     (0..=l).rev().find_map(|k| {
         let (nodes, splits, base) = h.level(o, k);
-        kdtree::first_leaf(nodes, splits, p, n, h.support(o, k), cos_min).map(|i| values[base + i].xyz())
+        let hk = h.support(o, k);
+        let ok = |i: usize| {
+            let nd = &nodes[i];
+            let nj = Vec3::from(nd.normal);
+            n.dot(nj) > cos_min && clip_ok(&h.clips[base + i], p - Vec3::from(nd.pos), nj, hk)
+        };
+        kdtree::first_leaf(nodes, splits, p, hk, ok).map(|i| values[base + i].xyz())
     })
 }
 
