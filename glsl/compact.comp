@@ -1,6 +1,7 @@
 // Kernel `compact`: the active set of the next level, built on the device: the nodes
 // first .. first+count whose child flag is set, in ascending order (a workgroup-wide
-// prefix sum per chunk), into `active`; their number into counters[1].
+// prefix sum per chunk), into `active`; their number into counters[2l + 1] (l = pc.level,
+// the level whose refined nodes activated them).
 #version 460
 #include "layout.glsl"
 
@@ -37,6 +38,6 @@ void main() {
         barrier();
     }
     if (t == 0u) {
-        g.counters.v[1] = s_base;
+        g.counters.v[2u * pc.level + 1u] = s_base;
     }
 }

@@ -1,5 +1,6 @@
 // Kernel `direct`: exact direct irradiance at nodes `first .. first + count` by shadow
-// rays (ALGORITHM.md §2), counting per light the nodes it lights (counters[4 + i]).
+// rays (ALGORITHM.md §2), counting per light the nodes it lights
+// (counters[LIGHT_COUNTERS + i]).
 // CPU twin: transport::cpu::direct_at_node.
 #version 460
 #include "surface.glsl"

@@ -13,7 +13,7 @@ void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
     uint n_rays = g.rays_per_integral;
-    if (id >= pc.count * n_rays) {
+    if (id >= batch_count() * n_rays) {
         return;
     }
     uint i = id / n_rays;

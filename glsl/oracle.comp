@@ -2,7 +2,7 @@
 // (ALGORITHM.md §5): a gathered node is refined when |g − pred| exceeds
 // max(ε_rel |g|, ε_abs mean E_d) + z σ in any channel. Inactive nodes take the prediction
 // (modified) or a zero delta (original). With flag = 1 the children of refined nodes are
-// marked for compaction. counters[0] counts refined nodes.
+// marked for compaction. counters[2l] counts refined nodes.
 // CPU twins: transport::cpu::oracle and CpuBackend::refine.
 #version 460
 #include "layout.glsl"
@@ -33,7 +33,7 @@ void main() {
     vec3 mean_direct = vec3(g.energy.v[4], g.energy.v[5], g.energy.v[6]);
     vec3 tau = max(abs(m) * g.eps_rel, mean_direct * g.eps_abs) + err * g.noise_z;
     if (any(greaterThan(abs(m - pred), tau))) {
-        atomicAdd(g.counters.v[0], 1u);
+        atomicAdd(g.counters.v[2u * pc.level], 1u);
         if (pc.flag == 1u) {
             uint a = g.child_offset.v[j];
             uint b = g.child_offset.v[j + 1u];

@@ -11,7 +11,7 @@ layout(local_size_x = LINEAR_GROUP) in;
 void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
-    if (id >= pc.count * g.rays_per_integral) {
+    if (id >= batch_count() * g.rays_per_integral) {
         return;
     }
     HitRecord h = g.hits.v[id];

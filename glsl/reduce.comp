@@ -14,7 +14,7 @@ shared vec3 s_sq[GATHER_GROUP];
 
 void main() {
     uint i = group_id();
-    if (i >= pc.count) {
+    if (i >= batch_count()) {
         return;
     }
     GlobalsRef g = pc.g;

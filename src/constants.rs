@@ -27,3 +27,6 @@ pub const BVH_BVH2: u32 = 0;
 pub const BVH_CWBVH: u32 = 1;
 /// Clip-plane distances are stored as `d / CLIP_SCALE · h` (see hierarchy::weight).
 pub const CLIP_SCALE: u32 = 50000;
+/// Counter slots: refined nodes of level l at `2l`, nodes it activates at `2l + 1`;
+/// nodes lit per light i at `LIGHT_COUNTERS + i`.
+pub const LIGHT_COUNTERS: u32 = 32;

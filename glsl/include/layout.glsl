@@ -98,6 +98,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     HitRef hits;
     Vec4Ref contrib;
     FloatRef energy;
+    UintRef dispatch_args;
     uint num_objects;
     uint num_lights;
     uint rays_per_integral;
@@ -123,7 +124,20 @@ layout(push_constant) uniform PushBlock {
     uint level;
     uint flag;    // kernel-specific switch
     uint aux;     // kernel-specific value
+    uint count_at; // NONE, or the counter holding the level's active count (indirect batches)
+    uint pad;
 } pc;
+
+// Integrals in this batch: `count`, or, for a batch dispatched indirectly, what the
+// level's active count (a counter written on the device) leaves from `offset`, at most
+// `count`.
+uint batch_count() {
+    if (pc.count_at == NONE) {
+        return pc.count;
+    }
+    uint total = pc.g.counters.v[pc.count_at];
+    return total > pc.offset ? min(total - pc.offset, pc.count) : 0u;
+}
 
 // Linear invocation index over a 2-D grid of 1-D workgroups of LINEAR_GROUP threads
 // (grids may exceed 65535 groups). Not gl_WorkGroupSize: this file is included before a

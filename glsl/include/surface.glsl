@@ -111,7 +111,7 @@ bool light_sample(GpuLight l, vec3 x, vec3 n, vec3 o, out vec3 e, out vec3 to_li
 }
 
 // Exact direct irradiance at a world-space point (x, n): every light, with a shadow ray.
-// With `count`, each contributing light i adds one to counters[4 + i].
+// With `count`, each contributing light i adds one to counters[LIGHT_COUNTERS + i].
 vec3 direct_at(GlobalsRef g, vec3 x, vec3 n, bool count) {
     vec3 o = offset_origin(x, n, g.scene_scale);
     vec3 e = vec3(0.0);
@@ -123,7 +123,7 @@ vec3 direct_at(GlobalsRef g, vec3 x, vec3 n, bool count) {
         if (light_sample(lights.v[i], x, n, o, el, tl, tm) && !occluded_scene(g, o, tl, tm)) {
             e += el;
             if (count) {
-                atomicAdd(g.counters.v[4u + i], 1u);
+                atomicAdd(g.counters.v[LIGHT_COUNTERS + i], 1u);
             }
         }
     }

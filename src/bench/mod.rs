@@ -14,50 +14,29 @@ use glam::{DVec3, Vec3};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::geom::transform::{xform_point, xform_vector};
+use crate::geom::rng::Rng;
 use crate::gpu::{Context, GpuBackend};
-use crate::hierarchy::{poisson, Hierarchy};
+use crate::hierarchy::Hierarchy;
 use crate::output::probe::{self, Probe};
 use crate::progress::Progress;
 use crate::reference::{self, Estimate, ReferenceOptions};
-use crate::scene::{reach, Scene};
+use crate::scene::Scene;
 use crate::transport::{self, cpu::CpuBackend, Solution};
 
-/// `n` probe points uniform by area on the surfaces light reaches (world space).
+/// `n` probe points where the scene's camera sees a surface: the primary hits of random
+/// pixel positions. The error at them is the error a user sees in the image, and no point
+/// falls on surfaces nobody looks at (a building's outside, a block's underside).
 pub fn probes_for(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
-    let p = &scene.params;
-    let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
-    // World areas per object, to split the points.
-    let areas: Vec<f64> = scene
-        .objects
-        .iter()
-        .map(|o| {
-            let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
-            let s = o.transform.scale as f64;
-            poisson::reachable_area(&scene.tris[r.clone()], &sides[r.start * 2..r.end * 2]) * s * s
-        })
-        .collect();
-    let total: f64 = areas.iter().sum();
+    let cam = &scene.camera;
+    let mut rng = Rng::new(seed, 0x9406e);
     let mut out = Vec::with_capacity(n);
-    let mut given = 0usize;
-    for (i, o) in scene.objects.iter().enumerate() {
-        let want = if i + 1 == scene.objects.len() {
-            n - given
-        } else {
-            ((areas[i] / total) * n as f64).round() as usize
-        };
-        given += want;
-        let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
-        for c in poisson::candidates(
-            &scene.tris[r.clone()],
-            &sides[r.start * 2..r.end * 2],
-            want,
-            seed ^ i as u64,
-        ) {
-            out.push(Probe {
-                p: xform_point(&o.to_world, c.pos),
-                n: xform_vector(&o.to_world, c.normal).normalize(),
-            });
+    let mut tries = 0;
+    while out.len() < n && tries < 100 * n.max(1) {
+        tries += 1;
+        let ray = cam.ray(rng.next_f32() * cam.width as f32, rng.next_f32() * cam.height as f32);
+        if let Some(hit) = scene.intersect(&ray, f32::INFINITY) {
+            let s = scene.surface(&hit, ray.d);
+            out.push(Probe { p: s.p, n: s.n });
         }
     }
     out

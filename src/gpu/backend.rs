@@ -9,19 +9,21 @@ use ash::vk;
 use glam::Vec4;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::{barrier, compute_barrier, Buffer};
+use super::buffer::{barrier, compute_barrier, indirect_barrier, Buffer};
 use super::context::Context;
 use super::globals::{Globals, Push, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
 use super::kernels::Kernels;
 use super::pipeline::Specialization;
 use super::profiler::Profiler;
-use crate::constants::{BVH_BVH2, BVH_CWBVH, VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL};
+use crate::constants::{
+    BVH_BVH2, BVH_CWBVH, LIGHT_COUNTERS, MAX_LEVELS, NONE, VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
+};
 use crate::error::{Error, Result};
 use crate::geom::sampling::halton_table;
 use crate::hierarchy::Hierarchy;
 use crate::params::{BvhKind, SolverParams, Variant};
 use crate::scene::Scene;
-use crate::transport::{Backend, Energy, NodeValues, Refined};
+use crate::transport::{Backend, BounceStats, Energy, NodeValues, Refined};
 
 /// The buffers of a solve.
 struct Buffers {
@@ -35,6 +37,8 @@ struct Buffers {
     child_flag: Buffer,
     counters: Buffer,
     energy: Buffer,
+    dispatch_args: Buffer,
+    readback: Buffer,
     _state: Vec<Buffer>,
 }
 
@@ -159,8 +163,18 @@ impl<'a> GpuBackend<'a> {
             indirect: z("indirect", vec4_bytes(n))?,
             active_flag: z("active flags", (n * 4) as u64)?,
             child_flag: z("child flags", (n * 4) as u64)?,
-            counters: z("counters", 16 + 4 * scene.lights.len() as u64)?,
+            counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.lights.len() as u64))?,
             energy: z("energy", 32)?,
+            dispatch_args: z(
+                "dispatch arguments",
+                24 * (max_level.div_ceil(batch as usize) as u64 + 1),
+            )?,
+            readback: Buffer::new(
+                &ctx,
+                "bounce readback",
+                4 * (2 * MAX_LEVELS as u64 + 2),
+                MemoryLocation::GpuToCpu,
+            )?,
             globals: Buffer::new(
                 &ctx,
                 "globals",
@@ -207,6 +221,7 @@ impl<'a> GpuBackend<'a> {
             hits: st[5].address,
             contrib: st[6].address,
             energy: b.energy.address,
+            dispatch_args: b.dispatch_args.address,
             num_objects: scene.objects.len() as u32,
             num_lights: scene.lights.len() as u32,
             rays_per_integral: p.rays,
@@ -270,6 +285,7 @@ impl<'a> GpuBackend<'a> {
             globals: self.addr,
             first: first as u32,
             count: count as u32,
+            count_at: NONE,
             ..Default::default()
         }
     }
@@ -362,7 +378,7 @@ impl Backend for GpuBackend<'_> {
             k.energy.record(prof, cmd, &e);
             compute_barrier(ctx, cmd);
         })?;
-        self.b.counters.download(4, self.lights)
+        self.b.counters.download(LIGHT_COUNTERS as usize, self.lights)
     }
 
     fn init_unshot(&mut self) -> Result<()> {
@@ -443,11 +459,12 @@ impl Backend for GpuBackend<'_> {
         p.level = level;
         p.flag = activate as u32;
         let next_range = if activate { self.h.level_range(l + 1) } else { 0..0 };
-        let cp = self.push(next_range.start, next_range.len());
+        let mut cp = self.push(next_range.start, next_range.len());
+        cp.level = level;
         let delta = self.p.variant.is_delta();
         let (coff, csize) = range_bytes(&next_range, 4);
         self.submit(|k, prof, cmd, b, ctx| {
-            b.counters.fill(cmd, 0, 16, 0);
+            b.counters.fill(cmd, 0, 8 * MAX_LEVELS as u64, 0);
             if activate {
                 b.child_flag.fill(cmd, coff, csize, 0);
             }
@@ -466,7 +483,7 @@ impl Backend for GpuBackend<'_> {
                 compute_barrier(ctx, cmd);
             }
         })?;
-        let c: Vec<u32> = self.b.counters.download(0, 2)?;
+        let c: Vec<u32> = self.b.counters.download(2 * l, 2)?;
         self.active_count = if activate { c[1] } else { 0 };
         Ok(Refined {
             refined: c[0],
@@ -514,6 +531,191 @@ impl Backend for GpuBackend<'_> {
             unshot: v[0] as f64,
             direct: v[1] as f64,
         })
+    }
+
+    /// One bounce in one submission: levels 0 and 1 in batches of known size, finer
+    /// levels in as many indirect batches as the level could need, their grids written by
+    /// `batches` from the active count that `compact` leaves on the device. The counts and
+    /// energies come back once, at the end.
+    fn bounce_fused(&mut self, k: u32) -> Result<Option<BounceStats>> {
+        let t = Instant::now();
+        let (h, batch, rays) = (self.h, self.batch, self.p.rays);
+        let g = self.p.gather_levels as usize;
+        let delta = self.p.variant.is_delta();
+        let max_x = self.ctx.info.max_workgroup_count_x.clamp(1, 65535);
+        let base = self.push(0, 0);
+        let levels = h.levels as usize;
+        let n_all = h.nodes.len();
+        let l0 = h.level_range(0);
+        let args = self.b.dispatch_args.buffer;
+        self.submit(|kk, prof, cmd, b, ctx| {
+            b.counters.fill(cmd, 0, 8 * MAX_LEVELS as u64, 0);
+            for l in 0..g {
+                let r = h.level_range(l);
+                b.active_flag.fill(cmd, 4 * r.start as u64, 4 * r.len() as u64, 0);
+                compute_barrier(ctx, cmd);
+                let lp = Push {
+                    first: r.start as u32,
+                    level: l as u32,
+                    aux: rays,
+                    ..base
+                };
+                let gather = |prof: &mut Profiler, p: &Push, indirect: Option<u64>| {
+                    for (i, launch) in [&kk.hemisphere, &kk.trace, &kk.reconstruct, &kk.reduce]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        match indirect {
+                            Some(at) => launch.record_indirect(prof, cmd, p, args, at + if i == 3 { 12 } else { 0 }),
+                            None => launch.record(prof, cmd, p),
+                        }
+                        compute_barrier(ctx, cmd);
+                    }
+                };
+                if l <= 1 {
+                    let mut offset = 0;
+                    while offset < r.len() as u32 {
+                        let n = batch.min(r.len() as u32 - offset);
+                        gather(prof, &Push { count: n, offset, ..lp }, None);
+                        offset += n;
+                    }
+                } else {
+                    for bi in 0..r.len().div_ceil(batch as usize) as u32 {
+                        let p = Push {
+                            count: batch,
+                            offset: bi * batch,
+                            flag: 1,
+                            count_at: 2 * (l as u32 - 1) + 1,
+                            ..lp
+                        };
+                        gather(prof, &p, Some(24 * bi as u64));
+                    }
+                }
+                let activate = l >= 1 && l + 1 < g;
+                let rp = Push {
+                    count: r.len() as u32,
+                    flag: activate as u32,
+                    ..lp
+                };
+                if l >= 1 {
+                    if let Some(launch) = if delta { &kk.delta } else { &kk.pulldown } {
+                        launch.record(prof, cmd, &Push { flag: 0, ..rp });
+                    }
+                }
+                let next = if activate { h.level_range(l + 1) } else { 0..0 };
+                b.child_flag.fill(cmd, 4 * next.start as u64, 4 * next.len() as u64, 0);
+                compute_barrier(ctx, cmd);
+                kk.oracle.record(prof, cmd, &rp);
+                compute_barrier(ctx, cmd);
+                if activate {
+                    kk.compact.record(
+                        prof,
+                        cmd,
+                        &Push {
+                            first: next.start as u32,
+                            count: next.len() as u32,
+                            ..lp
+                        },
+                    );
+                    compute_barrier(ctx, cmd);
+                    kk.batches.record(
+                        prof,
+                        cmd,
+                        &Push {
+                            count: next.len().div_ceil(batch as usize) as u32,
+                            offset: batch,
+                            aux: 2 * l as u32 + 1,
+                            level: max_x,
+                            ..base
+                        },
+                    );
+                    indirect_barrier(ctx, cmd);
+                }
+            }
+            for l in g..levels {
+                let r = h.level_range(l);
+                match &kk.pulldown {
+                    Some(launch) if !delta => launch.record(
+                        prof,
+                        cmd,
+                        &Push {
+                            first: r.start as u32,
+                            count: r.len() as u32,
+                            level: l as u32,
+                            flag: 1,
+                            ..base
+                        },
+                    ),
+                    _ => b.next.fill(cmd, 16 * r.start as u64, 16 * r.len() as u64, 0),
+                }
+                compute_barrier(ctx, cmd);
+            }
+            kk.accumulate.record(
+                prof,
+                cmd,
+                &Push {
+                    count: n_all as u32,
+                    ..base
+                },
+            );
+            compute_barrier(ctx, cmd);
+            kk.energy.record(
+                prof,
+                cmd,
+                &Push {
+                    first: l0.start as u32,
+                    count: l0.len() as u32,
+                    ..base
+                },
+            );
+            compute_barrier(ctx, cmd);
+            let regions = [
+                vk::BufferCopy::default().size(8 * MAX_LEVELS as u64),
+                vk::BufferCopy::default().dst_offset(8 * MAX_LEVELS as u64).size(8),
+            ];
+            // SAFETY: all three buffers are valid and large enough; a host barrier follows.
+            unsafe {
+                ctx.device
+                    .cmd_copy_buffer(cmd, b.counters.buffer, b.readback.buffer, &regions[..1]);
+                ctx.device
+                    .cmd_copy_buffer(cmd, b.energy.buffer, b.readback.buffer, &regions[1..]);
+                let host = [vk::MemoryBarrier::default()
+                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
+                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
+                ctx.device.cmd_pipeline_barrier(
+                    cmd,
+                    vk::PipelineStageFlags::TRANSFER,
+                    vk::PipelineStageFlags::HOST,
+                    vk::DependencyFlags::empty(),
+                    &host,
+                    &[],
+                    &[],
+                );
+            }
+        })?;
+        let bytes = self.b.readback.mapped()?;
+        let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..8 * MAX_LEVELS as usize]);
+        let e: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes[8 * MAX_LEVELS as usize..8 * MAX_LEVELS as usize + 8]);
+        let mut st = BounceStats {
+            bounce: k,
+            ..Default::default()
+        };
+        for l in 0..g {
+            let n = if l <= 1 {
+                h.level_range(l).len() as u32
+            } else {
+                c[2 * (l - 1) + 1]
+            };
+            if l >= 2 && n == 0 {
+                st.empty_from = Some(l as u32);
+                break;
+            }
+            st.integrals_per_level.push(n);
+            st.refined_per_level.push(c[2 * l]);
+        }
+        st.seconds = t.elapsed().as_secs_f64();
+        st.unshot_ratio = if e[1] > 0.0 { e[0] as f64 / e[1] as f64 } else { 0.0 };
+        Ok(Some(st))
     }
 
     fn values(&mut self) -> Result<NodeValues> {

@@ -38,6 +38,7 @@ impl Buffer {
                 vk::BufferUsageFlags::STORAGE_BUFFER
                     | vk::BufferUsageFlags::TRANSFER_SRC
                     | vk::BufferUsageFlags::TRANSFER_DST
+                    | vk::BufferUsageFlags::INDIRECT_BUFFER
                     | vk::BufferUsageFlags::SHADER_DEVICE_ADDRESS,
             )
             .sharing_mode(vk::SharingMode::EXCLUSIVE);
@@ -142,6 +143,14 @@ impl Buffer {
         Ok(())
     }
 
+    /// The contents of a host-visible buffer (after a submission that wrote it completed).
+    pub fn mapped(&self) -> Result<&[u8]> {
+        self.allocation
+            .as_ref()
+            .and_then(|a| a.mapped_slice())
+            .ok_or_else(|| Error::Gpu(format!("buffer `{}` is not host-visible", self.name)))
+    }
+
     /// Records a fill of `size` bytes at `offset` with the word `value`.
     pub fn fill(&self, cmd: vk::CommandBuffer, offset: u64, size: u64, value: u32) {
         if size == 0 {
@@ -229,6 +238,25 @@ pub fn barrier(ctx: &Context, cmd: vk::CommandBuffer, src: vk::PipelineStageFlag
             cmd,
             src,
             vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
+            vk::DependencyFlags::empty(),
+            &b,
+            &[],
+            &[],
+        );
+    }
+}
+
+/// The barrier after a kernel wrote indirect dispatch arguments.
+pub fn indirect_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    let b = [vk::MemoryBarrier::default()
+        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
+        .dst_access_mask(vk::AccessFlags::INDIRECT_COMMAND_READ | vk::AccessFlags::SHADER_READ)];
+    // SAFETY: recording into a command buffer in the recording state.
+    unsafe {
+        ctx.device.cmd_pipeline_barrier(
+            cmd,
+            vk::PipelineStageFlags::COMPUTE_SHADER,
+            vk::PipelineStageFlags::DRAW_INDIRECT | vk::PipelineStageFlags::COMPUTE_SHADER,
             vk::DependencyFlags::empty(),
             &b,
             &[],

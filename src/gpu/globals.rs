@@ -42,6 +42,7 @@ pub struct Globals {
     pub hits: u64,
     pub contrib: u64,
     pub energy: u64,
+    pub dispatch_args: u64,
     pub num_objects: u32,
     pub num_lights: u32,
     pub rays_per_integral: u32,
@@ -69,6 +70,9 @@ pub struct Push {
     pub level: u32,
     pub flag: u32,
     pub aux: u32,
+    /// `NONE`, or the counter holding the level's active count (indirect batches).
+    pub count_at: u32,
+    pub pad: u32,
 }
 
 /// A ray as the kernels store it (32 bytes).
@@ -79,8 +83,8 @@ pub const HIT_BYTES: u64 = 16;
 pub const CONTRIB_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 34 * 8 + 14 * 4);
-    assert!(std::mem::offset_of!(Globals, num_objects) == 272);
-    assert!(std::mem::offset_of!(Globals, sender_level) == 320);
-    assert!(std::mem::size_of::<Push>() == 32);
+    assert!(std::mem::size_of::<Globals>() == 35 * 8 + 14 * 4);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 280);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 328);
+    assert!(std::mem::size_of::<Push>() == 40);
 };

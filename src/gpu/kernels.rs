@@ -44,6 +44,20 @@ impl Launch {
         };
         prof.time(cmd, self.kernel.name, || self.kernel.dispatch(cmd, push, groups));
     }
+
+    /// Records one dispatch with a device-written grid, timed under the kernel's name.
+    pub fn record_indirect(
+        &self,
+        prof: &mut Profiler,
+        cmd: vk::CommandBuffer,
+        push: &Push,
+        args: vk::Buffer,
+        offset: u64,
+    ) {
+        prof.time(cmd, self.kernel.name, || {
+            self.kernel.dispatch_indirect(cmd, push, args, offset)
+        });
+    }
 }
 
 /// Every compute pipeline of the transport, built once per solve.
@@ -71,6 +85,8 @@ pub struct Kernels {
     pub accumulate: Launch,
     /// Level-0 energy sums.
     pub energy: Launch,
+    /// Indirect grids for the batches of a level whose size the device computed.
+    pub batches: Launch,
 }
 
 impl Kernels {
@@ -86,6 +102,7 @@ impl Kernels {
             &self.compact,
             &self.accumulate,
             &self.energy,
+            &self.batches,
         ];
         v.extend(self.pulldown.iter().chain(&self.delta));
         v
@@ -114,6 +131,7 @@ impl Kernels {
             compact: k("compact", shaders::COMPACT, Size::Single)?,
             accumulate: k("accumulate", shaders::ACCUMULATE, Size::Elements)?,
             energy: k("energy", shaders::ENERGY, Size::Single)?,
+            batches: k("batches", shaders::BATCHES, Size::Elements)?,
         })
     }
 }

@@ -110,6 +110,25 @@ impl Kernel {
     }
 }
 
+impl Kernel {
+    /// Records a dispatch whose grid the device wrote at byte `offset` of `args`.
+    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, push: &Push, args: vk::Buffer, offset: u64) {
+        let d = &self.ctx.device;
+        // SAFETY: recording state; `args` holds a VkDispatchIndirectCommand at `offset`.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                bytemuck::bytes_of(push),
+            );
+            d.cmd_dispatch_indirect(cmd, args, offset);
+        }
+    }
+}
+
 impl Drop for Kernel {
     fn drop(&mut self) {
         // SAFETY: no submission using the pipeline is pending (all are waited for).

@@ -67,6 +67,12 @@ pub trait Backend {
     fn end_bounce(&mut self) -> Result<Energy>;
     /// Reads the per-node results.
     fn values(&mut self) -> Result<NodeValues>;
+    /// A whole bounce at once, when the backend can do better than stage by stage (the
+    /// GPU: one submission, the active sets' sizes never leave the device until the end).
+    /// It must compute exactly what [`bounce`]'s stages compute.
+    fn bounce_fused(&mut self, _k: u32) -> Result<Option<BounceStats>> {
+        Ok(None)
+    }
     /// Per-kernel times in seconds (GPU timestamps), if the backend measures them.
     fn kernel_times(&mut self) -> Vec<(String, f64)> {
         Vec::new()
@@ -176,6 +182,9 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
 /// One bounce: gather levels `0..G` breadth-first with the oracle between them, fill the
 /// finer levels, accumulate.
 pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<BounceStats> {
+    if let Some(b) = backend.bounce_fused(k)? {
+        return Ok(b);
+    }
     let t = Instant::now();
     let g = p.gather_levels;
     let mut b = BounceStats {
