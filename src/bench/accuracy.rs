@@ -92,8 +92,8 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
                 p.coarsest = c.max(1);
             }));
         }
-        for g in [2, 4] {
-            if g <= base.levels {
+        for g in [2, 4, 5, 6, 7, 8] {
+            if g <= base.levels && g != base.gather_levels {
                 out.push(with(format!("{} gather_levels={g}", v.name()), &|p| {
                     p.variant = v;
                     p.gather_levels = g;
@@ -114,10 +114,11 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
                 p.eps_rel = e;
             }));
         }
-        // Combinations towards high accuracy: more nodes everywhere, more levels gathered.
-        for (c, g, r) in [(2, 4, 256), (2, 4, 512), (4, 4, 512)] {
+        // Combinations towards high accuracy: more nodes everywhere, more levels gathered
+        // (0: every level may be gathered where the oracle refines).
+        for (c, g, r) in [(2, 4, 256), (2, 4, 512), (4, 4, 512), (1, 0, 256), (2, 0, 256), (2, 0, 512), (4, 0, 512)] {
             let c = base.coarsest * c;
-            let g = g.min(base.levels);
+            let g = if g == 0 { base.levels } else { g.min(base.levels) };
             out.push(with(
                 format!("{} coarsest={c} gather_levels={g} rays={r}", v.name()),
                 &|p| {
