@@ -66,8 +66,9 @@ pub struct SolverParams {
     pub seed: u32,
     /// Level `s` reconstructed at hit points.
     pub sender_level: u32,
-    /// Number `G` of levels that get gathering integrals; finer levels are pulled down.
-    pub gather_levels: u32,
+    /// Number `G` of levels that may get gathering integrals (where the oracle refines);
+    /// finer levels are pulled down. Default: every level.
+    pub gather_levels: Option<u32>,
     /// Level used for outputs (images, probes); default: the finest.
     pub output_level: Option<u32>,
     /// Support `h_l = kappa * r_l`.
@@ -112,7 +113,7 @@ impl Default for SolverParams {
             variant: Variant::Approx,
             seed: 0,
             sender_level: 4,
-            gather_levels: 3,
+            gather_levels: None,
             output_level: None,
             kappa: 2.0,
             alpha: 1.0,
@@ -134,6 +135,11 @@ impl Default for SolverParams {
 }
 
 impl SolverParams {
+    /// `G`: the levels that may be gathered.
+    pub fn gather_levels(&self) -> u32 {
+        self.gather_levels.unwrap_or(self.levels)
+    }
+
     /// The level used for outputs.
     pub fn output_level(&self) -> u32 {
         self.output_level.unwrap_or(self.levels - 1)
@@ -160,7 +166,7 @@ impl SolverParams {
         range("rays", self.rays, 1, 1 << 22)?;
         range("bounces", self.bounces, 0, 10_000)?;
         range("sender_level", self.sender_level, 0, self.levels - 1)?;
-        range("gather_levels", self.gather_levels, 1, self.levels)?;
+        range("gather_levels", self.gather_levels(), 1, self.levels)?;
         range("output_level", self.output_level(), 0, self.levels - 1)?;
         range("max_candidates", self.max_candidates, 1, 200_000_000)?;
         range("reach_paths", self.reach_paths, 1, 1 << 28)?;

@@ -15,7 +15,7 @@ fn cornell(levels: u32) -> Scene {
     let mut s = Scene::embedded_cornell(&[]).unwrap();
     s.params.levels = levels;
     s.params.sender_level = levels - 1;
-    s.params.gather_levels = levels.min(3);
+    s.params.gather_levels = Some(levels.min(3));
     s
 }
 

@@ -93,10 +93,10 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
             }));
         }
         for g in [2, 4, 5, 6, 7, 8] {
-            if g <= base.levels && g != base.gather_levels {
+            if g <= base.levels && g != base.gather_levels() {
                 out.push(with(format!("{} gather_levels={g}", v.name()), &|p| {
                     p.variant = v;
-                    p.gather_levels = g;
+                    p.gather_levels = Some(g);
                 }));
             }
         }
@@ -116,7 +116,15 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
         }
         // Combinations towards high accuracy: more nodes everywhere, more levels gathered
         // (0: every level may be gathered where the oracle refines).
-        for (c, g, r) in [(2, 4, 256), (2, 4, 512), (4, 4, 512), (1, 0, 256), (2, 0, 256), (2, 0, 512), (4, 0, 512)] {
+        for (c, g, r) in [
+            (2, 4, 256),
+            (2, 4, 512),
+            (4, 4, 512),
+            (1, 0, 256),
+            (2, 0, 256),
+            (2, 0, 512),
+            (4, 0, 512),
+        ] {
             let c = base.coarsest * c;
             let g = if g == 0 { base.levels } else { g.min(base.levels) };
             out.push(with(
@@ -124,7 +132,7 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
                 &|p| {
                     p.variant = v;
                     p.coarsest = c;
-                    p.gather_levels = g;
+                    p.gather_levels = Some(g);
                     p.rays = r;
                 },
             ));
@@ -135,7 +143,7 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
                     p.variant = v;
                     p.levels = l;
                     p.sender_level = p.sender_level.min(l - 1);
-                    p.gather_levels = p.gather_levels.min(l);
+                    p.gather_levels = Some(p.gather_levels().min(l));
                 }));
             }
         }
@@ -207,7 +215,7 @@ pub fn sweep(
                 rays: params.rays,
                 levels: params.levels,
                 coarsest: params.coarsest,
-                gather_levels: params.gather_levels,
+                gather_levels: params.gather_levels(),
                 sender_level: params.sender_level,
                 eps_rel: params.eps_rel,
                 seconds: m.seconds,

@@ -540,7 +540,7 @@ impl Backend for GpuBackend<'_> {
     fn bounce_fused(&mut self, k: u32) -> Result<Option<BounceStats>> {
         let t = Instant::now();
         let (h, batch, rays) = (self.h, self.batch, self.p.rays);
-        let g = self.p.gather_levels as usize;
+        let g = self.p.gather_levels() as usize;
         let delta = self.p.variant.is_delta();
         let max_x = self.ctx.info.max_workgroup_count_x.clamp(1, 65535);
         let base = self.push(0, 0);

@@ -148,7 +148,7 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
         if let Some(l) = b.empty_from {
             stats.skipped.push(format!(
                 "bounce {k}: levels {l}..{} had no active node: no integrals, filled by {}",
-                p.gather_levels,
+                p.gather_levels(),
                 if p.variant.is_delta() {
                     "zero deltas"
                 } else {
@@ -186,7 +186,7 @@ pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<Bou
         return Ok(b);
     }
     let t = Instant::now();
-    let g = p.gather_levels;
+    let g = p.gather_levels();
     let mut b = BounceStats {
         bounce: k,
         ..Default::default()
