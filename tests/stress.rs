@@ -73,10 +73,14 @@ fn tolerance(noise: f64) -> f64 {
     (3.0 * noise).max(0.02)
 }
 
+/// Scaled or moved far from the origin, the scene must give the same answer up to float
+/// rounding: same candidates, nodes and rays, relative to its size (ray offsets and
+/// supports are scale-aware). Tolerance 1e-3 relative RMS, far below the 2 % sampling
+/// noise a change of seed makes.
 #[test]
 fn scale_and_translation_do_not_change_the_answer() {
     let dir = common::tmpdir();
-    let (base, noise) = baseline(dir.path());
+    let (base, _) = baseline(dir.path());
     for (name, scale, offset) in [
         ("scale 1e-3", 1e-3, [0.0; 3]),
         ("scale 1e3", 1e3, [0.0; 3]),
@@ -87,11 +91,8 @@ fn scale_and_translation_do_not_change_the_answer() {
         let v = room_indirect(&p, scale, offset, 0);
         // Irradiance is invariant by construction (intensity scaled by scale²).
         let dev = rel_rms(&v, &base);
-        println!(
-            "STRESS {name}: relative RMS deviation {dev:.4} (tolerance {:.4})",
-            tolerance(noise)
-        );
-        assert!(dev < tolerance(noise), "{name}: {dev}");
+        println!("STRESS {name}: relative RMS deviation {dev:.2e} (tolerance 1e-3)");
+        assert!(dev < 1e-3, "{name}: {dev}");
     }
 }
 
@@ -109,7 +110,7 @@ fn slivers_t_junctions_and_coincident_geometry() {
         let v = room_indirect(&p, 1.0, [0.0; 3], 0);
         let dev = rel_rms(&v, &base);
         println!(
-            "STRESS {name}: relative RMS deviation {dev:.4} (tolerance {:.4})",
+            "STRESS {name}: relative RMS deviation {dev:.2e} (tolerance {:.4})",
             tolerance(noise)
         );
         assert!(dev < tolerance(noise), "{name}: {dev}");

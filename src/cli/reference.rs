@@ -85,45 +85,8 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
 
 /// Reference images: exact direct light and path-traced indirect irradiance per pixel.
 fn render(scene: &Scene, opts: &ReferenceOptions, progress: &Progress) -> image::Images {
-    let cam = &scene.camera;
-    let (w, h) = (cam.width as usize, cam.height as usize);
-    let bar = progress.bar(h as u64, "reference image");
-    let inner = ReferenceOptions {
-        samples: opts.samples,
-        ..*opts
-    };
-    let rows: Vec<(Vec<Vec3>, Vec<Vec3>)> = (0..h)
-        .into_par_iter()
-        .map(|y| {
-            let mut d = Vec::with_capacity(w);
-            let mut i = Vec::with_capacity(w);
-            for x in 0..w {
-                let ray = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
-                match scene.intersect(&ray, f32::INFINITY) {
-                    Some(hit) => {
-                        let s = scene.surface(&hit, ray.d);
-                        let k = s.albedo / std::f32::consts::PI;
-                        d.push(k * scene.direct(s.p, s.n));
-                        let e = reference::indirect(scene, s.p, s.n, &inner, (y * w + x) as u64);
-                        i.push(k * e.mean.as_vec3());
-                    }
-                    None => {
-                        d.push(Vec3::ZERO);
-                        i.push(Vec3::ZERO);
-                    }
-                }
-            }
-            bar.inc(1);
-            (d, i)
-        })
-        .collect();
-    bar.finish();
-    let (direct, indirect): (Vec<_>, Vec<_>) = rows.into_iter().unzip();
-    image::Images {
-        width: cam.width,
-        height: cam.height,
-        direct: direct.concat(),
-        indirect: indirect.concat(),
-        clamped: 0,
-    }
+    let all = vec![true; scene.lights.len()];
+    image::render_with(scene, &all, progress, |s, pixel| {
+        reference::indirect(scene, s.p, s.n, opts, pixel as u64).mean.as_vec3()
+    })
 }

@@ -11,17 +11,21 @@ use crate::layout::{BvhNode, CwNode, Tri};
 /// Traversal stack entries; a BVH deeper than this is rejected at build time.
 pub const BVH_STACK: usize = crate::constants::BVH_STACK as usize;
 
-/// Builds a BVH2 over `tris` and reorders `tris` (and `extra`, e.g. uvs) so that leaves
-/// index triangles directly.
-pub fn build<T: Copy>(tris: &mut Vec<Tri>, extra: &mut Vec<T>, name: &str) -> Result<Vec<BvhNode>> {
-    let input: Vec<Triangle> = tris
-        .iter()
+/// Our triangles as obvhs takes them.
+fn obvhs_triangles(tris: &[Tri]) -> Vec<Triangle> {
+    tris.iter()
         .map(|t| Triangle {
             v0: Vec3A::from_array(t.v0),
             v1: Vec3A::from_array(t.v1),
             v2: Vec3A::from_array(t.v2),
         })
-        .collect();
+        .collect()
+}
+
+/// Builds a BVH2 over `tris` and reorders `tris` (and `extra`, e.g. uvs) so that leaves
+/// index triangles directly.
+pub fn build<T: Copy>(tris: &mut Vec<Tri>, extra: &mut Vec<T>, name: &str) -> Result<Vec<BvhNode>> {
+    let input = obvhs_triangles(tris);
     let mut time = std::time::Duration::ZERO;
     let bvh = build_bvh2_from_tris(&input, BvhBuildParams::medium_build(), &mut time);
     let order = &bvh.primitive_indices;
@@ -90,14 +94,7 @@ pub fn slab(node: &BvhNode, o: Vec3, inv: Vec3, tmax: f32) -> f32 {
 /// array, its leaves indexing a shared primitive array at `prim_offset` that holds global
 /// triangle indices (`tri_offset` + local).
 pub fn build_cwbvh(tris: &[Tri], node_offset: u32, prim_offset: u32, tri_offset: u32) -> (Vec<CwNode>, Vec<u32>) {
-    let input: Vec<Triangle> = tris
-        .iter()
-        .map(|t| Triangle {
-            v0: Vec3A::from_array(t.v0),
-            v1: Vec3A::from_array(t.v1),
-            v2: Vec3A::from_array(t.v2),
-        })
-        .collect();
+    let input = obvhs_triangles(tris);
     let mut time = std::time::Duration::ZERO;
     let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&input, BvhBuildParams::medium_build(), &mut time);
     let mut nodes = cw.nodes;

@@ -9,7 +9,7 @@ use ash::vk;
 use glam::Vec4;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::{barrier, compute_barrier, indirect_barrier, Buffer};
+use super::buffer::{barrier, compute_barrier, host_barrier, indirect_barrier, Buffer};
 use super::context::Context;
 use super::globals::{Globals, Push, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
 use super::kernels::Kernels;
@@ -673,25 +673,14 @@ impl Backend for GpuBackend<'_> {
                 vk::BufferCopy::default().size(8 * MAX_LEVELS as u64),
                 vk::BufferCopy::default().dst_offset(8 * MAX_LEVELS as u64).size(8),
             ];
-            // SAFETY: all three buffers are valid and large enough; a host barrier follows.
+            // SAFETY: all three buffers are valid and large enough.
             unsafe {
                 ctx.device
                     .cmd_copy_buffer(cmd, b.counters.buffer, b.readback.buffer, &regions[..1]);
                 ctx.device
                     .cmd_copy_buffer(cmd, b.energy.buffer, b.readback.buffer, &regions[1..]);
-                let host = [vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
-                ctx.device.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &host,
-                    &[],
-                    &[],
-                );
             }
+            host_barrier(ctx, cmd);
         })?;
         let bytes = self.b.readback.mapped()?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..8 * MAX_LEVELS as usize]);

@@ -185,20 +185,9 @@ impl Buffer {
             unsafe {
                 self.ctx
                     .device
-                    .cmd_copy_buffer(cmd, self.buffer, staging.buffer, &region);
-                let host = [vk::MemoryBarrier::default()
-                    .src_access_mask(vk::AccessFlags::TRANSFER_WRITE)
-                    .dst_access_mask(vk::AccessFlags::HOST_READ)];
-                self.ctx.device.cmd_pipeline_barrier(
-                    cmd,
-                    vk::PipelineStageFlags::TRANSFER,
-                    vk::PipelineStageFlags::HOST,
-                    vk::DependencyFlags::empty(),
-                    &host,
-                    &[],
-                    &[],
-                );
-            }
+                    .cmd_copy_buffer(cmd, self.buffer, staging.buffer, &region)
+            };
+            host_barrier(&self.ctx, cmd);
             Ok(())
         })?;
         let slice = staging
@@ -223,46 +212,61 @@ impl Drop for Buffer {
     }
 }
 
+/// A global memory barrier from `(src stages, src accesses)` to `(dst stages, dst accesses)`.
+pub fn memory_barrier(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    src: (vk::PipelineStageFlags, vk::AccessFlags),
+    dst: (vk::PipelineStageFlags, vk::AccessFlags),
+) {
+    let b = [vk::MemoryBarrier::default()
+        .src_access_mask(src.1)
+        .dst_access_mask(dst.1)];
+    // SAFETY: recording into a command buffer in the recording state.
+    unsafe {
+        ctx.device
+            .cmd_pipeline_barrier(cmd, src.0, dst.0, vk::DependencyFlags::empty(), &b, &[], &[]);
+    }
+}
+
 /// A global barrier: everything written by `src` stages/accesses becomes visible to
 /// compute shaders and transfers that follow.
 pub fn barrier(ctx: &Context, cmd: vk::CommandBuffer, src: vk::PipelineStageFlags, access: vk::AccessFlags) {
-    let b = [vk::MemoryBarrier::default().src_access_mask(access).dst_access_mask(
-        vk::AccessFlags::SHADER_READ
-            | vk::AccessFlags::SHADER_WRITE
-            | vk::AccessFlags::TRANSFER_READ
-            | vk::AccessFlags::TRANSFER_WRITE,
-    )];
-    // SAFETY: recording into a command buffer in the recording state.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            src,
+    memory_barrier(
+        ctx,
+        cmd,
+        (src, access),
+        (
             vk::PipelineStageFlags::COMPUTE_SHADER | vk::PipelineStageFlags::TRANSFER,
-            vk::DependencyFlags::empty(),
-            &b,
-            &[],
-            &[],
-        );
-    }
+            vk::AccessFlags::SHADER_READ
+                | vk::AccessFlags::SHADER_WRITE
+                | vk::AccessFlags::TRANSFER_READ
+                | vk::AccessFlags::TRANSFER_WRITE,
+        ),
+    );
 }
 
 /// The barrier after a kernel wrote indirect dispatch arguments.
 pub fn indirect_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
-    let b = [vk::MemoryBarrier::default()
-        .src_access_mask(vk::AccessFlags::SHADER_WRITE)
-        .dst_access_mask(vk::AccessFlags::INDIRECT_COMMAND_READ | vk::AccessFlags::SHADER_READ)];
-    // SAFETY: recording into a command buffer in the recording state.
-    unsafe {
-        ctx.device.cmd_pipeline_barrier(
-            cmd,
-            vk::PipelineStageFlags::COMPUTE_SHADER,
+    memory_barrier(
+        ctx,
+        cmd,
+        (vk::PipelineStageFlags::COMPUTE_SHADER, vk::AccessFlags::SHADER_WRITE),
+        (
             vk::PipelineStageFlags::DRAW_INDIRECT | vk::PipelineStageFlags::COMPUTE_SHADER,
-            vk::DependencyFlags::empty(),
-            &b,
-            &[],
-            &[],
-        );
-    }
+            vk::AccessFlags::INDIRECT_COMMAND_READ | vk::AccessFlags::SHADER_READ,
+        ),
+    );
+}
+
+/// The barrier after copies that the host reads once the submission completed.
+pub fn host_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    memory_barrier(
+        ctx,
+        cmd,
+        (vk::PipelineStageFlags::TRANSFER, vk::AccessFlags::TRANSFER_WRITE),
+        (vk::PipelineStageFlags::HOST, vk::AccessFlags::HOST_READ),
+    );
 }
 
 /// The barrier between two dependent compute dispatches (or a fill and a dispatch).

@@ -43,54 +43,14 @@ fn build_range(nodes: &mut [Node], splits: &mut [KdSplit], lo: usize, hi: usize)
     build_range(nodes, splits, mid, hi);
 }
 
-/// Calls `f(i)` for every node `i` (local index) with `|x_i − p| < r`.
+/// Near-first traversal of the leaves whose node may lie within `r` of `p`: calls
+/// `visit(i)` for each (local index) until it returns `true`.
 #[inline]
-pub fn range(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut f: impl FnMut(usize)) {
-    if nodes.is_empty() {
-        return;
-    }
-    let mut stack = [(0u32, 0u32); KD_STACK];
-    let mut sp = 1;
-    stack[0] = (0, nodes.len() as u32);
-    let r2 = r * r;
-    while sp > 0 {
-        sp -= 1;
-        let (mut lo, mut hi) = stack[sp];
-        loop {
-            if hi - lo == 1 {
-                if (Vec3::from(nodes[lo as usize].pos) - p).length_squared() < r2 {
-                    f(lo as usize);
-                }
-                break;
-            }
-            let mid = (lo + hi) / 2;
-            let s = splits[mid as usize];
-            let d = p[s.dim as usize] - s.value;
-            let (near, far) = if d < 0.0 {
-                ((lo, mid), (mid, hi))
-            } else {
-                ((mid, hi), (lo, mid))
-            };
-            if d.abs() < r {
-                stack[sp] = far;
-                sp += 1;
-            }
-            (lo, hi) = near;
-        }
-    }
-}
-
-/// The first leaf met by a near-first descent for `p` whose node lies within `r` and that
-/// `ok(i)` accepts (normal agreement, support clip): the approximate reconstruction
-/// (paper §5.1).
-#[inline]
-pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, ok: impl Fn(usize) -> bool) -> Option<usize> {
-    let mut found = None;
+fn traverse(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut visit: impl FnMut(usize) -> bool) {
     let mut stack = [(0u32, 0u32); KD_STACK];
     let mut sp = usize::from(!nodes.is_empty());
     stack[0] = (0, nodes.len() as u32);
-    let r2 = r * r;
-    while sp > 0 && found.is_none() {
+    while sp > 0 {
         sp -= 1;
         let (mut lo, mut hi) = stack[sp];
         while hi - lo > 1 {
@@ -108,11 +68,37 @@ pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, ok: impl 
             }
             (lo, hi) = near;
         }
-        let nd = &nodes[lo as usize];
-        if (Vec3::from(nd.pos) - p).length_squared() < r2 && ok(lo as usize) {
-            found = Some(lo as usize);
+        if visit(lo as usize) {
+            return;
         }
     }
+}
+
+/// Calls `f(i)` for every node `i` (local index) with `|x_i − p| < r`.
+#[inline]
+pub fn range(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut f: impl FnMut(usize)) {
+    let r2 = r * r;
+    traverse(nodes, splits, p, r, |i| {
+        if (Vec3::from(nodes[i].pos) - p).length_squared() < r2 {
+            f(i);
+        }
+        false
+    });
+}
+
+/// The first leaf met by a near-first descent for `p` whose node lies within `r` and that
+/// `ok(i)` accepts (normal agreement, support clip): the approximate reconstruction
+/// (paper §5.1).
+#[inline]
+pub fn first_leaf(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, ok: impl Fn(usize) -> bool) -> Option<usize> {
+    let r2 = r * r;
+    let mut found = None;
+    traverse(nodes, splits, p, r, |i| {
+        if (Vec3::from(nodes[i].pos) - p).length_squared() < r2 && ok(i) {
+            found = Some(i);
+        }
+        found.is_some()
+    });
     found
 }
 

@@ -10,7 +10,7 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::hierarchy::Hierarchy;
 use crate::progress::Progress;
-use crate::scene::Scene;
+use crate::scene::{Scene, Surface};
 use crate::transport::Solution;
 
 /// Linear radiance images.
@@ -32,13 +32,16 @@ impl Images {
     }
 }
 
-/// Renders the camera view of a solution, reading the indirect light from `level`.
-pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress: &Progress) -> Images {
+/// Renders the camera view: per pixel, the primary hit's direct irradiance from the
+/// lights `lights` (exact, shadow rays) and the indirect irradiance `indirect(surface,
+/// pixel index)`, as radiance `ρ E / π`. Negative indirect values are clamped and counted.
+pub fn render_with(
+    scene: &Scene,
+    lights: &[bool],
+    progress: &Progress,
+    indirect: impl Fn(&Surface, usize) -> Vec3 + Sync,
+) -> Images {
     let cam = &scene.camera;
-    // Lights that reach no node reach no lit surface: no shadow rays for them.
-    let lights: Vec<bool> = (0..scene.lights.len())
-        .map(|i| sol.stats.nodes_lit_per_light.get(i).is_none_or(|&n| n > 0))
-        .collect();
     let (w, hgt) = (cam.width as usize, cam.height as usize);
     let bar = progress.bar(hgt as u64, "image");
     let rows: Vec<(Vec<Vec3>, Vec<Vec3>)> = (0..hgt)
@@ -48,18 +51,16 @@ pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress
             let mut i = Vec::with_capacity(w);
             for x in 0..w {
                 let ray = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
-                match scene.intersect(&ray, f32::INFINITY) {
+                let (dv, iv) = match scene.intersect(&ray, f32::INFINITY) {
                     Some(hit) => {
                         let s = scene.surface(&hit, ray.d);
                         let k = s.albedo / std::f32::consts::PI;
-                        d.push(k * scene.direct_from(s.p, s.n, &lights));
-                        i.push(k * sol.indirect_on(h, s.object as usize, s.p_obj, s.n_obj, level));
+                        (k * scene.direct_from(s.p, s.n, lights), k * indirect(&s, y * w + x))
                     }
-                    None => {
-                        d.push(Vec3::ZERO);
-                        i.push(Vec3::ZERO);
-                    }
-                }
+                    None => (Vec3::ZERO, Vec3::ZERO),
+                };
+                d.push(dv);
+                i.push(iv);
             }
             bar.inc(1);
             (d, i)
@@ -82,6 +83,17 @@ pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress
         indirect,
         clamped,
     }
+}
+
+/// Renders the camera view of a solution, reading the indirect light from `level`.
+/// Lights that reach no node reach no lit surface: no shadow rays for them.
+pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress: &Progress) -> Images {
+    let lights: Vec<bool> = (0..scene.lights.len())
+        .map(|i| sol.stats.nodes_lit_per_light.get(i).is_none_or(|&n| n > 0))
+        .collect();
+    render_with(scene, &lights, progress, |s, _| {
+        sol.indirect_on(h, s.object as usize, s.p_obj, s.n_obj, level)
+    })
 }
 
 /// Writes `stem.exr` (linear float RGB) and `stem.png` (gamma 2.2, clamped) in `dir`.
