@@ -79,7 +79,7 @@ pub struct Kernels {
     pub delta: Option<Launch>,
     /// New values and the refinement decision.
     pub oracle: Launch,
-    /// The next level's active set, compacted in order.
+    /// The next level's active set, appended through an atomic counter.
     pub compact: Launch,
     /// Indirect += new; un-shot = new.
     pub accumulate: Launch,
@@ -128,7 +128,7 @@ impl Kernels {
                 .transpose()?,
             delta: delta.then(|| k("delta", shaders::DELTA, Size::Elements)).transpose()?,
             oracle: k("oracle", shaders::ORACLE, Size::Elements)?,
-            compact: k("compact", shaders::COMPACT, Size::Single)?,
+            compact: k("compact", shaders::COMPACT, Size::Elements)?,
             accumulate: k("accumulate", shaders::ACCUMULATE, Size::Elements)?,
             energy: k("energy", shaders::ENERGY, Size::Single)?,
             batches: k("batches", shaders::BATCHES, Size::Elements)?,
