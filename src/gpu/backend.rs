@@ -9,7 +9,7 @@ use ash::vk;
 use glam::Vec4;
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::{barrier, compute_barrier, host_barrier, indirect_barrier, Buffer};
+use super::buffer::{compute_barrier, host_barrier, indirect_barrier, Buffer};
 use super::context::Context;
 use super::globals::{Globals, Push, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
 use super::kernels::Kernels;
@@ -28,7 +28,6 @@ use crate::transport::{Backend, BounceStats, Energy, NodeValues, Refined};
 /// The buffers of a solve.
 struct Buffers {
     _scene: Vec<Buffer>,
-    globals: Buffer,
     direct: Buffer,
     unshot: Buffer,
     next: Buffer,
@@ -82,6 +81,7 @@ pub struct GpuBackend<'a> {
     k: Kernels,
     prof: Profiler,
     b: Buffers,
+    _globals: Buffer,
     addr: u64,
     batch: u32,
     active_count: u32,
@@ -175,12 +175,6 @@ impl<'a> GpuBackend<'a> {
                 4 * (2 * MAX_LEVELS as u64 + 2),
                 MemoryLocation::GpuToCpu,
             )?,
-            globals: Buffer::new(
-                &ctx,
-                "globals",
-                std::mem::size_of::<Globals>() as u64,
-                MemoryLocation::GpuOnly,
-            )?,
             _scene: scene_bufs,
             _state: state,
         };
@@ -237,23 +231,8 @@ impl<'a> GpuBackend<'a> {
             sender_level: p.sender_level,
             pad0: 0,
         };
-        let staged = Buffer::upload(&ctx, "globals (staged)", bytemuck::bytes_of(&g))?;
-        ctx.run(|cmd| {
-            let region = [vk::BufferCopy::default().size(std::mem::size_of::<Globals>() as u64)];
-            // SAFETY: both buffers are valid and large enough.
-            unsafe {
-                ctx.device
-                    .cmd_copy_buffer(cmd, staged.buffer, b.globals.buffer, &region)
-            };
-            barrier(
-                &ctx,
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            );
-            Ok(())
-        })?;
-        let addr = b.globals.address;
+        let globals = Buffer::upload(&ctx, "globals", bytemuck::bytes_of(&g))?;
+        let addr = globals.address;
         let report = GpuReport {
             device: ctx.info.name.clone(),
             driver: format!("{} {}", ctx.info.driver_name, ctx.info.driver_info),
@@ -272,6 +251,7 @@ impl<'a> GpuBackend<'a> {
             p,
             k,
             b,
+            _globals: globals,
             addr,
             batch,
             active_count: 0,

@@ -104,12 +104,7 @@ impl Buffer {
             unsafe {
                 ctx.device.cmd_copy_buffer(cmd, staging.buffer, dst.buffer, &region);
             }
-            barrier(
-                ctx,
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            );
+            transfer_barrier(ctx, cmd);
             Ok(())
         })?;
         Ok(dst)
@@ -120,12 +115,7 @@ impl Buffer {
         let b = Buffer::new(ctx, name, size, MemoryLocation::GpuOnly)?;
         ctx.run(|cmd| {
             b.fill(cmd, 0, b.size, 0);
-            barrier(
-                ctx,
-                cmd,
-                vk::PipelineStageFlags::TRANSFER,
-                vk::AccessFlags::TRANSFER_WRITE,
-            );
+            transfer_barrier(ctx, cmd);
             Ok(())
         })?;
         Ok(b)
@@ -243,6 +233,16 @@ pub fn barrier(ctx: &Context, cmd: vk::CommandBuffer, src: vk::PipelineStageFlag
                 | vk::AccessFlags::TRANSFER_READ
                 | vk::AccessFlags::TRANSFER_WRITE,
         ),
+    );
+}
+
+/// The barrier after copies and fills that kernels and transfers read next.
+pub fn transfer_barrier(ctx: &Context, cmd: vk::CommandBuffer) {
+    barrier(
+        ctx,
+        cmd,
+        vk::PipelineStageFlags::TRANSFER,
+        vk::AccessFlags::TRANSFER_WRITE,
     );
 }
 

@@ -94,6 +94,19 @@ impl Kernel {
         let max_x = self.ctx.info.max_workgroup_count_x.clamp(1, 65535) as u64;
         let x = groups.min(max_x);
         let y = groups.div_ceil(x);
+        self.bind(cmd, push);
+        // SAFETY: recording state, pipeline bound.
+        unsafe { self.ctx.device.cmd_dispatch(cmd, x as u32, y as u32, 1) };
+    }
+
+    /// Records a dispatch whose grid the device wrote at byte `offset` of `args`.
+    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, push: &Push, args: vk::Buffer, offset: u64) {
+        self.bind(cmd, push);
+        // SAFETY: recording state; `args` holds a VkDispatchIndirectCommand at `offset`.
+        unsafe { self.ctx.device.cmd_dispatch_indirect(cmd, args, offset) };
+    }
+
+    fn bind(&self, cmd: vk::CommandBuffer, push: &Push) {
         let d = &self.ctx.device;
         // SAFETY: recording state; the push range matches the layout.
         unsafe {
@@ -105,26 +118,6 @@ impl Kernel {
                 0,
                 bytemuck::bytes_of(push),
             );
-            d.cmd_dispatch(cmd, x as u32, y as u32, 1);
-        }
-    }
-}
-
-impl Kernel {
-    /// Records a dispatch whose grid the device wrote at byte `offset` of `args`.
-    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, push: &Push, args: vk::Buffer, offset: u64) {
-        let d = &self.ctx.device;
-        // SAFETY: recording state; `args` holds a VkDispatchIndirectCommand at `offset`.
-        unsafe {
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            d.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                bytemuck::bytes_of(push),
-            );
-            d.cmd_dispatch_indirect(cmd, args, offset);
         }
     }
 }
