@@ -67,33 +67,36 @@ fn solve_a_scene_file_with_flags_and_export_nodes() {
     let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
     let out = dir.path().join("o");
     let ply = dir.path().join("nodes.ply");
-    let o = meshrad(
-        &[
-            "solve",
-            scene.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-            "--backend",
-            "cpu",
-            "--variant",
-            "original",
-            "--bounces",
-            "2",
-            "--rays",
-            "64",
-            "--seed",
-            "7",
-            "--set",
-            "levels=4",
-            "--set",
-            "sender_level=3",
-            "--export-nodes",
-            ply.to_str().unwrap(),
-            "--stats",
-            "-q",
-        ],
-        dir.path(),
-    );
+    let run = |out: &Path, ply: &Path| {
+        meshrad(
+            &[
+                "solve",
+                scene.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--backend",
+                "cpu",
+                "--variant",
+                "original",
+                "--bounces",
+                "2",
+                "--rays",
+                "64",
+                "--seed",
+                "7",
+                "--set",
+                "levels=4",
+                "--set",
+                "sender_level=3",
+                "--export-nodes",
+                ply.to_str().unwrap(),
+                "--stats",
+                "-q",
+            ],
+            dir.path(),
+        )
+    };
+    let o = run(&out, &ply);
     ok(&o);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("nodes per level") && err.contains("bounce 2"), "{err}");
@@ -115,6 +118,29 @@ fn solve_a_scene_file_with_flags_and_export_nodes() {
     assert!(text.contains(&format!("element vertex {nodes}\n")));
     let header_len = text.find("end_header\n").unwrap() + "end_header\n".len();
     assert_eq!(bytes.len() - header_len, nodes as usize * 56);
+
+    // The same command again writes the same bytes: nodes, EXR and PNG.
+    let out2 = dir.path().join("o2");
+    let ply2 = dir.path().join("nodes2.ply");
+    ok(&run(&out2, &ply2));
+    assert!(
+        bytes == std::fs::read(&ply2).unwrap(),
+        "node export differs between runs"
+    );
+    for f in [
+        "direct.exr",
+        "indirect.exr",
+        "total.exr",
+        "direct.png",
+        "indirect.png",
+        "total.png",
+    ] {
+        let (a, b) = (
+            std::fs::read(out.join(f)).unwrap(),
+            std::fs::read(out2.join(f)).unwrap(),
+        );
+        assert!(a == b, "{f} differs between two runs of the same command");
+    }
 }
 
 #[test]

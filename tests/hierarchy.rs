@@ -76,6 +76,23 @@ fn dart_throwing_is_maximal() {
     }
 }
 
+/// The chunked, parallel dart throwing accepts exactly what the sequential loop accepts,
+/// in the same order, whatever `usable` rejects, over many chunks.
+#[test]
+fn parallel_dart_throwing_equals_sequential() {
+    let scene = cornell(3);
+    let sides = vec![true; scene.tris.len() * 2];
+    let pool = poisson::candidates(&scene.tris, &sides, 60_000, 9);
+    let usable = |i: usize| (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 61 != 0; // drops 1 in 8
+    for r in [60.0, 15.0, 4.0] {
+        let par = poisson::dart_throw(&pool, r, usable);
+        let seq = poisson::dart_throw_sequential(&pool, r, usable);
+        println!("r = {r}: {} nodes", seq.len());
+        assert!(seq.len() > 100);
+        assert_eq!(par, seq, "r = {r}");
+    }
+}
+
 #[test]
 fn partition_of_unity_and_constants() {
     let scene = cornell(5);

@@ -176,8 +176,9 @@ pub struct HierarchyStats {
     /// Children with no same-side node on the parent level at all.
     pub orphans_per_level: Vec<u32>,
     pub reachable_area: f64,
-    /// Candidates dropped because they lie in a crevice (a gap narrower than the
-    /// finest level's radius, e.g. under an object resting on the floor).
+    /// Candidates found in a crevice (a gap narrower than the finest level's radius, e.g.
+    /// under an object resting on the floor), of those tested: the crevice test runs on
+    /// the candidates that no node of an earlier chunk of the dart throwing covers.
     pub crevice_candidates_dropped: usize,
     pub reachable_sides: usize,
     pub seconds_reach: f64,

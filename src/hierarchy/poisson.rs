@@ -3,9 +3,6 @@
 //! they come in random order, so any prefix is itself a uniform pool: level `l` throws
 //! darts over the first `candidate_factor × E[N_l]` of them.
 
-use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
-
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -82,34 +79,52 @@ pub fn reachable_area(tris: &[Tri], sides: &[bool]) -> f64 {
         .sum()
 }
 
-/// A fast hasher for grid cells (FxHash's multiply-rotate).
-#[derive(Default)]
-pub struct CellHasher(u64);
-
-impl Hasher for CellHasher {
-    fn finish(&self) -> u64 {
-        self.0
-    }
-    fn write(&mut self, bytes: &[u8]) {
-        for &b in bytes {
-            self.write_u64(b as u64);
-        }
-    }
-    fn write_i32(&mut self, i: i32) {
-        self.write_u64(i as u32 as u64);
-    }
-    fn write_u64(&mut self, i: u64) {
-        self.0 = (self.0.rotate_left(5) ^ i).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
+/// A cell of [`Grid`]'s open-addressing table: its coordinates and the first point of its
+/// list (`NONE`: a free slot).
+#[derive(Clone, Copy)]
+struct Slot {
+    key: [i32; 3],
+    head: u32,
 }
 
-type Cells = HashMap<(i32, i32, i32), u32, BuildHasherDefault<CellHasher>>;
+const NONE: u32 = u32::MAX;
+const FREE: Slot = Slot {
+    key: [0; 3],
+    head: NONE,
+};
 
-/// A uniform grid over accepted points, cell size `r`, with per-cell linked lists.
+/// A point and the next one of its cell, in one 32-byte record: a chain step is one
+/// cache line.
+#[derive(Clone, Copy)]
+#[repr(C, align(32))]
+struct Entry {
+    pos: Vec3,
+    next: u32,
+    normal: Vec3,
+}
+
+/// Asks the cache for the line holding `x`; no effect on what the program computes.
+#[inline(always)]
+fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch is a hint; it reads nothing the program sees and cannot fault.
+    unsafe {
+        std::arch::x86_64::_mm_prefetch(x as *const T as *const i8, std::arch::x86_64::_MM_HINT_T0);
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
+/// A uniform grid over accepted points with per-cell lists, hashed by linear probing.
+/// Cells are `2r` wide, so the ball of radius `r` about a point meets at most two cells
+/// per axis: eight lookups where cells of `r` take twenty-seven. Dart throwing is bound by
+/// memory latency, hence the flat table (a lookup is one cache line) and the records.
 pub struct Grid {
     r: f32,
-    cells: Cells,
-    next: Vec<u32>,
+    inv_cell: f32,
+    slots: Vec<Slot>,
+    used: usize,
+    entries: Vec<Entry>,
     pub points: Vec<Candidate>,
 }
 
@@ -117,33 +132,67 @@ impl Grid {
     pub fn new(r: f32) -> Self {
         Grid {
             r,
-            cells: Cells::default(),
-            next: Vec::new(),
+            inv_cell: 0.5 / r,
+            slots: vec![FREE; 64],
+            used: 0,
+            entries: Vec::new(),
             points: Vec::new(),
         }
     }
 
-    fn cell(&self, p: Vec3) -> (i32, i32, i32) {
-        let c = (p / self.r).floor();
-        (c.x as i32, c.y as i32, c.z as i32)
+    fn cell(&self, p: Vec3) -> [i32; 3] {
+        let c = (p * self.inv_cell).floor();
+        [c.x as i32, c.y as i32, c.z as i32]
+    }
+
+    fn home(&self, k: [i32; 3]) -> usize {
+        let h = (k[0] as u32 as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)
+            ^ (k[1] as u32 as u64).wrapping_mul(0xc2b2_ae3d_27d4_eb4f)
+            ^ (k[2] as u32 as u64).wrapping_mul(0x1656_67b1_9e37_79f9);
+        // The table's length is a power of two; the high bits mix best.
+        (h.wrapping_mul(0x51_7c_c1_b7_27_22_0a_95) >> (64 - self.slots.len().trailing_zeros())) as usize
+    }
+
+    /// The slot holding `k`, or the free slot where it would go.
+    fn slot(&self, k: [i32; 3]) -> usize {
+        let mask = self.slots.len() - 1;
+        let mut i = self.home(k);
+        loop {
+            let s = &self.slots[i];
+            if s.head == NONE || s.key == k {
+                return i;
+            }
+            i = (i + 1) & mask;
+        }
     }
 
     /// Whether some point on the same side (`n · n' > 0`) lies closer than `r` to `c`.
     pub fn conflicts(&self, c: &Candidate) -> bool {
-        let (x, y, z) = self.cell(c.pos);
+        // Every point within r lies in a cell between those of p - r and p + r (rounding
+        // is monotonic); the own cell first, where most rejections happen.
+        let own = self.cell(c.pos);
+        let lo = self.cell(c.pos - Vec3::splat(self.r));
+        let hi = self.cell(c.pos + Vec3::splat(self.r));
         let r2 = self.r * self.r;
-        // The own cell first: most rejections happen there.
-        const ORDER: [i32; 3] = [0, -1, 1];
-        for dx in ORDER {
-            for dy in ORDER {
-                for dz in ORDER {
-                    let mut i = *self.cells.get(&(x + dx, y + dy, z + dz)).unwrap_or(&u32::MAX);
-                    while i != u32::MAX {
-                        let q = &self.points[i as usize];
-                        if (q.pos - c.pos).length_squared() < r2 && q.normal.dot(c.normal) > 0.0 {
-                            return true;
-                        }
-                        i = self.next[i as usize];
+        let scan = |key: [i32; 3]| {
+            let mut i = self.slots[self.slot(key)].head;
+            while i != NONE {
+                let q = &self.entries[i as usize];
+                if (q.pos - c.pos).length_squared() < r2 && q.normal.dot(c.normal) > 0.0 {
+                    return true;
+                }
+                i = q.next;
+            }
+            false
+        };
+        if scan(own) {
+            return true;
+        }
+        for x in lo[0]..=hi[0] {
+            for y in lo[1]..=hi[1] {
+                for z in lo[2]..=hi[2] {
+                    if [x, y, z] != own && scan([x, y, z]) {
+                        return true;
                     }
                 }
             }
@@ -151,19 +200,135 @@ impl Grid {
         false
     }
 
+    /// [`Self::conflicts`] for many candidates at once: `keep(i)` is called, in order, for
+    /// the indices of `cands` that conflict with no point. Dart throwing waits on memory
+    /// (about ten cache misses per candidate, for cells and list records), so this runs as
+    /// a pipeline: candidate `i + 2D` prefetches its cells' slots, candidate `i + D` the
+    /// first records of their lists, candidate `i` is tested.
+    pub fn open_candidates(&self, cands: &[Candidate], mut keep: impl FnMut(usize)) {
+        const D: usize = 8;
+        const RING: usize = 4 * D;
+        let mut homes = [[0usize; 8]; RING];
+        let mut counts = [0usize; RING];
+        for i in 0..cands.len() + 2 * D {
+            let a = i;
+            if a < cands.len() {
+                let c = &cands[a];
+                let lo = self.cell(c.pos - Vec3::splat(self.r));
+                let hi = self.cell(c.pos + Vec3::splat(self.r));
+                let mut n = 0;
+                for x in lo[0]..=hi[0] {
+                    for y in lo[1]..=hi[1] {
+                        for z in lo[2]..=hi[2] {
+                            if n < 8 {
+                                let h = self.home([x, y, z]);
+                                prefetch(&self.slots[h]);
+                                homes[a % RING][n] = h;
+                            }
+                            n += 1;
+                        }
+                    }
+                }
+                counts[a % RING] = n.min(8);
+            }
+            if let Some(b) = i.checked_sub(D).filter(|&b| b < cands.len()) {
+                for &h in &homes[b % RING][..counts[b % RING]] {
+                    let head = self.slots[h].head;
+                    if head != NONE {
+                        prefetch(&self.entries[head as usize]);
+                    }
+                }
+            }
+            if let Some(t) = i.checked_sub(2 * D).filter(|&t| t < cands.len()) {
+                if !self.conflicts(&cands[t]) {
+                    keep(t);
+                }
+            }
+        }
+    }
+
+    /// Empties the grid (keeping its allocations), yielding its points in insertion order.
+    pub fn drain(&mut self) -> std::vec::Drain<'_, Candidate> {
+        self.slots.fill(FREE);
+        self.used = 0;
+        self.entries.clear();
+        self.points.drain(..)
+    }
+
     pub fn insert(&mut self, c: Candidate) {
+        if 2 * (self.used + 1) > self.slots.len() {
+            let grown = vec![FREE; self.slots.len() * 2];
+            let old = std::mem::replace(&mut self.slots, grown);
+            for s in old.into_iter().filter(|s| s.head != NONE) {
+                let i = self.slot(s.key);
+                self.slots[i] = s;
+            }
+        }
         let key = self.cell(c.pos);
-        let i = self.points.len() as u32;
-        let head = self.cells.insert(key, i).unwrap_or(u32::MAX);
-        self.next.push(head);
+        let i = self.slot(key);
+        let s = &mut self.slots[i];
+        if s.head == NONE {
+            *s = Slot { key, head: NONE };
+            self.used += 1;
+        }
+        self.entries.push(Entry {
+            pos: c.pos,
+            next: s.head,
+            normal: c.normal,
+        });
+        s.head = (self.entries.len() - 1) as u32;
         self.points.push(c);
     }
 }
 
 /// Dart throwing: accepts each candidate, in order, that keeps distance `r` to every
-/// accepted point on the same side and that `usable(index)` admits (asked only for
-/// candidates that would be accepted). The result is maximal for the usable pool.
-pub fn dart_throw(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool) -> Vec<Candidate> {
+/// accepted point on the same side and that `usable(index)` admits. The result is
+/// maximal for the usable pool, and exactly that of the sequential loop
+/// ([`dart_throw_sequential`]).
+///
+/// The pool goes in chunks. Within a chunk, the test against the points accepted by
+/// earlier chunks and `usable` (the crevice test: eight shadow rays) run in parallel,
+/// and only the candidates that pass both meet the sequential loop, against the points
+/// this chunk accepted so far. `usable` must be a pure function of the index: it is asked
+/// for candidates that an earlier one of the same chunk then covers.
+pub fn dart_throw(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool + Sync) -> Vec<Candidate> {
+    const CHUNK: usize = 8192;
+    const BLOCK: usize = 256;
+    let mut g = Grid::new(r);
+    let mut local = Grid::new(r);
+    for (k, chunk) in pool.chunks(CHUNK).enumerate() {
+        let base = k * CHUNK;
+        let g_ref = &g;
+        let open: Vec<u32> = chunk
+            .par_chunks(BLOCK)
+            .enumerate()
+            .flat_map_iter(|(b, block)| {
+                let mut open = Vec::new();
+                g_ref.open_candidates(block, |i| {
+                    let i = b * BLOCK + i;
+                    if usable(base + i) {
+                        open.push(i as u32);
+                    }
+                });
+                open
+            })
+            .collect();
+        for i in open {
+            let c = &chunk[i as usize];
+            if !local.conflicts(c) {
+                local.insert(*c);
+            }
+        }
+        for c in local.drain() {
+            g.insert(c);
+        }
+    }
+    g.points
+}
+
+/// The plain sequential loop that [`dart_throw`] reproduces: `usable` is asked only for
+/// candidates that would be accepted.
+pub fn dart_throw_sequential(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool) -> Vec<Candidate> {
     let mut g = Grid::new(r);
     for (i, c) in pool.iter().enumerate() {
         if !g.conflicts(c) && usable(i) {

@@ -99,14 +99,21 @@ pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress
 /// Writes `stem.exr` (linear float RGB) and `stem.png` (gamma 2.2, clamped) in `dir`.
 pub fn write_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3]) -> Result<()> {
     let exr_path = dir.join(format!("{stem}.exr"));
-    exr::prelude::write_rgb_file(&exr_path, w as usize, h as usize, |x, y| {
-        let p = px[y * w as usize + x];
+    // Compressed sequentially: the parallel writer stores blocks in completion order,
+    // so the same image would not give the same bytes twice.
+    use exr::prelude::{Image, SpecificChannels, Vec2, WritableImage};
+    let channels = SpecificChannels::rgb(|pos: Vec2<usize>| {
+        let p = px[pos.y() * w as usize + pos.x()];
         (p.x, p.y, p.z)
-    })
-    .map_err(|e| Error::Output {
-        path: exr_path.clone(),
-        message: e.to_string(),
-    })?;
+    });
+    Image::from_channels((w as usize, h as usize), channels)
+        .write()
+        .non_parallel()
+        .to_file(&exr_path)
+        .map_err(|e| Error::Output {
+            path: exr_path.clone(),
+            message: e.to_string(),
+        })?;
     let png_path = dir.join(format!("{stem}.png"));
     let enc = |v: f32| (v.max(0.0).powf(1.0 / 2.2).min(1.0) * 255.0 + 0.5) as u8;
     let buf: Vec<u8> = px.iter().flat_map(|p| [enc(p.x), enc(p.y), enc(p.z)]).collect();
