@@ -125,7 +125,6 @@ pub struct Grid {
     slots: Vec<Slot>,
     used: usize,
     entries: Vec<Entry>,
-    pub points: Vec<Candidate>,
 }
 
 impl Grid {
@@ -136,7 +135,6 @@ impl Grid {
             slots: vec![FREE; 64],
             used: 0,
             entries: Vec::new(),
-            points: Vec::new(),
         }
     }
 
@@ -247,12 +245,19 @@ impl Grid {
         }
     }
 
-    /// Empties the grid (keeping its allocations), yielding its points in insertion order.
-    pub fn drain(&mut self) -> std::vec::Drain<'_, Candidate> {
+    /// The points in insertion order.
+    pub fn points(&self) -> impl Iterator<Item = Candidate> + '_ {
+        self.entries.iter().map(|e| Candidate {
+            pos: e.pos,
+            normal: e.normal,
+        })
+    }
+
+    /// Empties the grid, keeping its allocations.
+    pub fn clear(&mut self) {
         self.slots.fill(FREE);
         self.used = 0;
         self.entries.clear();
-        self.points.drain(..)
     }
 
     pub fn insert(&mut self, c: Candidate) {
@@ -277,7 +282,6 @@ impl Grid {
             normal: c.normal,
         });
         s.head = (self.entries.len() - 1) as u32;
-        self.points.push(c);
     }
 }
 
@@ -319,11 +323,12 @@ pub fn dart_throw(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool + S
                 local.insert(*c);
             }
         }
-        for c in local.drain() {
+        for c in local.points() {
             g.insert(c);
         }
+        local.clear();
     }
-    g.points
+    g.points().collect()
 }
 
 /// The plain sequential loop that [`dart_throw`] reproduces: `usable` is asked only for
@@ -335,5 +340,5 @@ pub fn dart_throw_sequential(pool: &[Candidate], r: f32, usable: impl Fn(usize) 
             g.insert(*c);
         }
     }
-    g.points
+    g.points().collect()
 }
