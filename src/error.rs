@@ -6,13 +6,10 @@ use std::path::PathBuf;
 /// All errors of the library.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A file could not be read or written.
-    #[error("{path}: {source}")]
-    Io {
-        path: PathBuf,
-        #[source]
-        source: std::io::Error,
-    },
+    /// A file could not be read or written. (The OS error is part of this message and
+    /// not a `source`, so that a printed chain does not repeat it.)
+    #[error("{path}: {error}")]
+    Io { path: PathBuf, error: std::io::Error },
     /// The scene file is not valid TOML or does not match the schema.
     #[error("{path}: {message}")]
     SceneSyntax { path: PathBuf, message: String },
@@ -43,6 +40,13 @@ pub enum Error {
         line: usize,
         message: String,
     },
+    /// A run would need more memory than it may plan for (see `limits`).
+    #[error("{path}: key `{key}`: {message}")]
+    Resource {
+        path: PathBuf,
+        key: String,
+        message: String,
+    },
     /// The Vulkan layer failed.
     #[error("GPU: {0}")]
     Gpu(String),
@@ -59,7 +63,7 @@ impl Error {
     pub fn io(path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         Error::Io {
             path: path.into(),
-            source,
+            error: source,
         }
     }
 

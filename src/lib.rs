@@ -15,6 +15,7 @@ pub mod geom;
 pub mod gpu;
 pub mod hierarchy;
 pub mod layout;
+pub mod limits;
 pub mod metrics;
 pub mod output;
 pub mod params;

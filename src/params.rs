@@ -163,13 +163,13 @@ impl SolverParams {
         };
         range("levels", self.levels, 1, MAX_LEVELS)?;
         range("coarsest", self.coarsest, 1, 10_000_000)?;
-        range("rays", self.rays, 1, 1 << 22)?;
+        range("rays", self.rays, 1, 1 << 16)?;
         range("bounces", self.bounces, 0, 10_000)?;
         range("sender_level", self.sender_level, 0, self.levels - 1)?;
         range("gather_levels", self.gather_levels(), 1, self.levels)?;
         range("output_level", self.output_level(), 0, self.levels - 1)?;
         range("max_candidates", self.max_candidates, 1, 200_000_000)?;
-        range("reach_paths", self.reach_paths, 1, 1 << 28)?;
+        range("reach_paths", self.reach_paths, 1024, 1 << 28)?;
         range("reach_bounces", self.reach_bounces, 1, 64)?;
         finite("kappa", self.kappa, 1e-3, 100.0)?;
         if self.kappa <= 0.0 {
@@ -179,7 +179,8 @@ impl SolverParams {
         finite("eps_rel", self.eps_rel, 0.0, 1e6)?;
         finite("eps_abs", self.eps_abs, 0.0, 1e6)?;
         finite("noise_z", self.noise_z, 0.0, 1e3)?;
-        finite("approx_cos", self.approx_cos, -1.0, 1.0)?;
+        // At 1 no leaf could pass the normal test: every gathered ray would find nothing.
+        finite("approx_cos", self.approx_cos, -1.0, 0.99)?;
         finite("stop_threshold", self.stop_threshold, 0.0, 1.0)?;
         finite("candidate_factor", self.candidate_factor, 1.0, 1e3)?;
         finite("crevice_distance", self.crevice_distance, 0.0, 100.0)?;

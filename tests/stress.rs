@@ -274,14 +274,21 @@ fn gpu_reduction_of_a_million_samples() {
     }
     let gm = g.read_state(meshrad::gpu::backend::State::GatheredMean).unwrap();
     let mut worst = 0.0f64;
+    let mut lit = 0;
     for j in h.level_range(0) {
         let want = c.gathered(j).unwrap().mean.as_dvec3();
         let got = gm[j].xyz().as_dvec3();
-        let d = (got - want).abs().max_element() / want.max_element().max(1e-12);
+        if want == DVec3::ZERO {
+            // A node that sees only unlit surfaces (e.g. on top of the luminaire, facing
+            // the ceiling) gathers exactly zero on both sides.
+            assert_eq!(got, DVec3::ZERO, "node {j}");
+            continue;
+        }
+        lit += 1;
+        let d = (got - want).abs().max_element() / want.max_element();
         worst = worst.max(d);
-        assert!(want.max_element() > 0.0);
-        let _ = DVec3::ZERO;
     }
+    assert!(lit > 0, "no level-0 node gathered light");
     println!(
         "STRESS GPU float32 reduction of {} samples per integral vs CPU float64: worst relative difference {worst:.2e} (tolerance 1e-4)",
         scene.params.rays

@@ -17,6 +17,7 @@ use std::sync::Arc;
 use crate::gpu::backend::GpuReport;
 use crate::gpu::{list_devices, Context, ContextOptions, GpuBackend};
 use crate::hierarchy::{Hierarchy, HierarchyStats};
+use crate::limits::Limits;
 use crate::output::{self, image, ply, probe};
 use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
@@ -86,6 +87,10 @@ pub struct SolverArgs {
     /// Any other [solver] key, as KEY=VALUE (repeatable), e.g. --set eps_rel=0.05.
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub set: Vec<String>,
+    /// Memory a run may plan for (e.g. 8G, 512M); a run estimated above it is refused
+    /// before it starts. Default: MESHRAD_MAX_MEMORY, else half of the machine's memory.
+    #[arg(long, value_name = "BYTES")]
+    pub max_memory: Option<String>,
     /// Print per-phase and per-kernel times to stderr.
     #[arg(long)]
     pub stats: bool,
@@ -138,6 +143,7 @@ pub fn main() -> ExitCode {
                 seed: None,
                 device: None,
                 set: Vec::new(),
+                max_memory: None,
                 stats: false,
                 quiet: false,
             },
@@ -183,12 +189,27 @@ impl SolverArgs {
     }
 }
 
-/// Loads a scene (or the embedded Cornell box) with the flags' overrides.
+impl SolverArgs {
+    /// The resource limits these flags set.
+    pub fn limits(&self) -> Result<Limits> {
+        let mut l = Limits::default();
+        if let Ok(m) = std::env::var("MESHRAD_MAX_MEMORY") {
+            l.max_memory = crate::limits::parse_bytes(&m).map_err(|e| anyhow::anyhow!("MESHRAD_MAX_MEMORY: {e}"))?;
+        }
+        if let Some(m) = &self.max_memory {
+            l.max_memory = crate::limits::parse_bytes(m).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?;
+        }
+        Ok(l)
+    }
+}
+
+/// Loads a scene (or the embedded Cornell box) with the flags' overrides and limits.
 pub fn load_scene(path: Option<&Path>, args: &SolverArgs) -> Result<Scene> {
     let overrides = args.overrides()?;
+    let limits = args.limits()?;
     Ok(match path {
-        Some(p) => Scene::load(p, &overrides)?,
-        None => Scene::embedded_cornell(&overrides)?,
+        Some(p) => Scene::load_with(p, &overrides, &limits)?,
+        None => Scene::embedded_cornell_with(&overrides, &limits)?,
     })
 }
 
@@ -267,7 +288,12 @@ pub struct Run {
 pub fn gpu_context(choice: BackendChoice, device: Option<&str>, quiet: bool) -> Result<Option<Arc<Context>>> {
     let opts = ContextOptions::from_env(device.map(String::from));
     match choice {
-        BackendChoice::Cpu => Ok(None),
+        BackendChoice::Cpu => match device {
+            Some(d) => {
+                anyhow::bail!("--device {d}: a device is chosen for the GPU backend; drop --backend cpu or --device")
+            }
+            None => Ok(None),
+        },
         BackendChoice::Gpu => Ok(Some(Arc::new(Context::new(&opts)?))),
         BackendChoice::Auto => match Context::new(&opts) {
             Ok(c) if device.is_some() || c.info.device_type != "CPU" => Ok(Some(Arc::new(c))),
@@ -281,6 +307,9 @@ pub fn gpu_context(choice: BackendChoice, device: Option<&str>, quiet: bool) -> 
                 }
                 Ok(None)
             }
+            // A device that was asked for by name or index and is not there is an error,
+            // not a reason to run somewhere else.
+            Err(e) if device.is_some() => Err(e.into()),
             Err(e) => {
                 if !quiet {
                     eprintln!("note: auto backend: no Vulkan device ({e}); using the CPU backend");
@@ -323,18 +352,46 @@ fn report_load(scene: &Scene, quiet: bool) {
     if r.degenerate_dropped > 0 {
         eprintln!("note: dropped {} degenerate triangle(s)", r.degenerate_dropped);
     }
-    if !r.emissive_materials_ignored.is_empty() && !quiet {
+    if r.duplicate_dropped > 0 {
+        eprintln!(
+            "note: dropped {} triangle(s) that repeat an earlier one of the same mesh exactly",
+            r.duplicate_dropped
+        );
+    }
+    if quiet {
+        return;
+    }
+    for n in &r.notes {
+        eprintln!("note: {n}");
+    }
+    if !r.emissive_materials_ignored.is_empty() {
         eprintln!(
             "note: emission (Ke) is not supported yet; ignored for material(s) {}",
             r.emissive_materials_ignored.join(", ")
         );
     }
-    if r.faces_without_material > 0 && !quiet {
+    if r.faces_without_material > 0 {
         eprintln!(
             "note: {} face(s) have no material; albedo {:?} used",
             r.faces_without_material,
             crate::scene::obj::DEFAULT_KD
         );
+    }
+    if r.planned_bytes > (1u64 << 30) as f64 {
+        eprintln!(
+            "note: this run plans for about {} of memory",
+            crate::limits::human(r.planned_bytes)
+        );
+    }
+}
+
+/// Warnings of the solve that change what the outputs mean.
+fn report_solve(sol: &Solution, quiet: bool) {
+    if quiet {
+        return;
+    }
+    for s in sol.stats.skipped.iter().filter(|s| s.starts_with("light ")) {
+        eprintln!("warning: {s}");
     }
 }
 
@@ -370,16 +427,26 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let scene = load_scene(a.scene.as_deref(), &a.solver)?;
     report_load(&scene, a.solver.quiet);
     let load = t.elapsed().as_secs_f64();
+    // Where the outputs go is settled before the solve: a bad --out fails in a moment,
+    // not after minutes of work, and no output may replace an input or another output.
+    output::ensure_dir(&a.out)?;
+    let mut planned: Vec<(&str, PathBuf)> = image::file_names(&a.out).into_iter().map(|p| ("an image", p)).collect();
+    planned.push(("stats.json", a.out.join("stats.json")));
+    if let Some(p) = &a.export_nodes {
+        planned.push(("--export-nodes", p.clone()));
+    }
+    output::check_outputs(&planned, &scene.report.inputs)?;
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = run_solver(&scene, ctx, &progress)?;
+    report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
     progress.stage("images");
-    output::ensure_dir(&a.out)?;
     let img = image::render(&scene, h, sol, scene.params.output_level(), &progress);
-    image::write_all(&a.out, &img)?;
+    let mut files = output::Outputs::default();
+    image::encode_all(&a.out, &img, &mut files)?;
     if let Some(p) = &a.export_nodes {
-        ply::write(p, &scene, h, sol)?;
+        files.add(p, ply::encode(p, &scene, h, sol)?);
     }
     let seconds = PhaseSeconds {
         load,
@@ -409,7 +476,9 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         },
         seconds,
     };
-    output::write_json(&a.out.join("stats.json"), &stats)?;
+    let stats_path = a.out.join("stats.json");
+    files.add(&stats_path, output::json_bytes(&stats_path, &stats)?);
+    files.commit()?;
     if !a.solver.quiet {
         println!(
             "{}: {} nodes, {} integrals in {:.2} s ({}, {}); images in {}",
@@ -430,8 +499,14 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     let probes = probe::read(&a.points)?;
     let scene = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, a.solver.quiet);
+    if let Some(p) = &a.out {
+        let mut inputs = scene.report.inputs.clone();
+        inputs.push(a.points.clone());
+        output::check_outputs(&[("--out", p.clone())], &inputs)?;
+    }
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = run_solver(&scene, ctx, &progress)?;
+    report_solve(&run.solution, a.solver.quiet);
     let values = probe::evaluate(
         &scene,
         &run.hierarchy,
@@ -442,7 +517,11 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     let text = probe::csv(&probes, &values);
     progress.finish();
     match &a.out {
-        Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
+        Some(p) => {
+            let mut files = output::Outputs::default();
+            files.add(p, text.into_bytes());
+            files.commit()?;
+        }
         None => print!("{text}"),
     }
     Ok(())

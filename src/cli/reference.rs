@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::{Context as _, Result};
+use anyhow::Result;
 use clap::Args;
 use glam::Vec3;
 use rayon::prelude::*;
@@ -41,10 +41,33 @@ pub struct ReferenceArgs {
     quiet: bool,
 }
 
+/// Most paths per point or pixel.
+pub const MAX_SAMPLES: u32 = 1 << 24;
+/// Most paths of one run (about a day of path tracing on two cores).
+pub const MAX_PATHS: u64 = 1 << 37;
+
+/// Refuses a run of more than [`MAX_PATHS`] paths, with the estimate.
+fn check_work(count: u64, samples: u32, what: &str) -> Result<()> {
+    let paths = count * samples as u64;
+    if paths > MAX_PATHS {
+        anyhow::bail!(
+            "--samples {samples}: {count} {what} × {samples} paths = {paths:.3e} paths, over the {MAX_PATHS:.3e} \
+             one run may trace; lower --samples",
+            paths = paths as f64,
+            MAX_PATHS = MAX_PATHS as f64
+        );
+    }
+    Ok(())
+}
+
 pub fn run(a: ReferenceArgs) -> Result<()> {
+    let samples = a.samples.unwrap_or(if a.camera { 256 } else { 16384 });
+    if !(2..=MAX_SAMPLES).contains(&samples) {
+        anyhow::bail!("--samples {samples}: must be within 2..={MAX_SAMPLES} (a standard error needs two samples)");
+    }
     let scene = Scene::load(&a.scene, &[])?;
     let opts = ReferenceOptions {
-        samples: a.samples.unwrap_or(if a.camera { 256 } else { 16384 }).max(1),
+        samples,
         max_bounces: a.max_bounces.unwrap_or(scene.params.bounces),
         seed: a.seed,
         ..Default::default()
@@ -53,6 +76,12 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     let t = Instant::now();
     if let Some(points) = &a.points {
         let probes = probe::read(points)?;
+        check_work(probes.len() as u64, samples, "points")?;
+        if let Some(p) = &a.out {
+            let mut inputs = scene.report.inputs.clone();
+            inputs.push(points.clone());
+            output::check_outputs(&[("--out", p.clone())], &inputs)?;
+        }
         progress.stage(&format!("{} points × {} paths", probes.len(), opts.samples));
         let pts: Vec<(Vec3, Vec3)> = probes.iter().map(|q| (q.p, q.n)).collect();
         let est = reference::indirect_many(&scene, &pts, &opts);
@@ -60,12 +89,16 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         let text = probe::reference_csv(&probes, &direct, &est);
         progress.finish();
         match &a.out {
-            Some(p) => std::fs::write(p, text).with_context(|| format!("writing {}", p.display()))?,
+            Some(p) => output::write_bytes(p, text.into_bytes())?,
             None => print!("{text}"),
         }
     } else if a.camera {
         let dir = a.out.clone().unwrap_or_else(|| PathBuf::from("out-reference"));
+        let pixels = scene.camera.width as u64 * scene.camera.height as u64;
+        check_work(pixels, samples, "pixels")?;
         output::ensure_dir(&dir)?;
+        let planned: Vec<(&str, PathBuf)> = image::file_names(&dir).into_iter().map(|p| ("an image", p)).collect();
+        output::check_outputs(&planned, &scene.report.inputs)?;
         progress.stage(&format!("camera, {} paths per pixel", opts.samples));
         let img = render(&scene, &opts, &progress);
         image::write_all(&dir, &img)?;

@@ -1,8 +1,16 @@
-//! One BVH2 per object (obvhs, PLOC build), traversed by a stack-based loop that the GPU
-//! kernels mirror (`trace_object` in `glsl/include/bvh.glsl`).
+//! One BVH2 per object, built here by binned SAH with a depth bound, traversed by a
+//! stack-based loop that the GPU kernels mirror (`trace_object` in
+//! `glsl/include/geometry.glsl`); the CWBVH the GPU may traverse instead is converted
+//! from a single-primitive BVH2 of the same builder by obvhs.
+//!
+//! The builder is O(n log n) on any input, repeated and coincident geometry included:
+//! a node whose centroids coincide is split at its index median, and a node whose
+//! subtree could otherwise grow past the traversal stack is split at the centroid
+//! median, so the depth never exceeds what traversal can hold (obvhs' PLOC builder made
+//! 1392 levels of 25 000 coincident triangles, and 75 of a 300-gon's fan).
 
 use glam::{Vec3, Vec3A};
-use obvhs::{bvh2::builder::build_bvh2_from_tris, triangle::Triangle, BvhBuildParams};
+use obvhs::{aabb::Aabb, bvh2::Bvh2};
 
 use super::ray::{Ray, WatertightRay};
 use crate::error::{Error, Result};
@@ -10,38 +18,208 @@ use crate::layout::{BvhNode, CwNode, Tri};
 
 /// Traversal stack entries; a BVH deeper than this is rejected at build time.
 pub const BVH_STACK: usize = crate::constants::BVH_STACK as usize;
+/// Stack entries of the GPU's CWBVH traversal (`stack[32]` in `glsl/include/cwbvh.glsl`).
+pub const CWBVH_STACK: usize = 32;
 
-/// Our triangles as obvhs takes them.
-fn obvhs_triangles(tris: &[Tri]) -> Vec<Triangle> {
-    tris.iter()
-        .map(|t| Triangle {
-            v0: Vec3A::from_array(t.v0),
-            v1: Vec3A::from_array(t.v1),
-            v2: Vec3A::from_array(t.v2),
-        })
-        .collect()
-}
+/// Largest leaf of the BVH2.
+const MAX_LEAF: usize = 8;
+/// SAH bins per axis.
+const BINS: usize = 16;
+/// Cost of a node visit relative to one triangle test.
+const TRAVERSAL_COST: f32 = 1.0;
 
 /// Builds a BVH2 over `tris` and reorders `tris` (and `extra`, e.g. uvs) so that leaves
 /// index triangles directly.
 pub fn build<T: Copy>(tris: &mut Vec<Tri>, extra: &mut Vec<T>, name: &str) -> Result<Vec<BvhNode>> {
-    let input = obvhs_triangles(tris);
-    let mut time = std::time::Duration::ZERO;
-    let bvh = build_bvh2_from_tris(&input, BvhBuildParams::medium_build(), &mut time);
-    let order = &bvh.primitive_indices;
+    let (nodes, order) = build_nodes(tris, MAX_LEAF, BVH_STACK);
     *tris = order.iter().map(|&i| tris[i as usize]).collect();
     if !extra.is_empty() {
         *extra = order.iter().map(|&i| extra[i as usize]).collect();
     }
-    let depth = depth(&bvh.nodes);
+    let depth = depth(&nodes);
     if depth >= BVH_STACK {
+        // The builder bounds the depth; this guards the bound itself.
         return Err(Error::Mesh {
             path: name.into(),
             line: None,
             message: format!("BVH depth {depth} exceeds the traversal stack of {BVH_STACK}"),
         });
     }
-    Ok(bvh.nodes)
+    Ok(nodes)
+}
+
+/// Centroid and bounds of each triangle.
+fn prim_bounds(tris: &[Tri]) -> (Vec<Vec3A>, Vec<Aabb>) {
+    tris.iter()
+        .map(|t| {
+            let (a, b, c) = (Vec3A::from(t.v0), Vec3A::from(t.v1), Vec3A::from(t.v2));
+            let bb = Aabb::new(a.min(b).min(c), a.max(b).max(c));
+            ((bb.min + bb.max) * 0.5, bb)
+        })
+        .unzip()
+}
+
+fn half_area(b: &Aabb) -> f32 {
+    let d = (b.max - b.min).max(Vec3A::ZERO);
+    d.x * d.y + d.y * d.z + d.z * d.x
+}
+
+fn grow(b: &mut Aabb, o: &Aabb) {
+    b.min = b.min.min(o.min);
+    b.max = b.max.max(o.max);
+}
+
+const EMPTY: Aabb = Aabb {
+    min: Vec3A::splat(f32::INFINITY),
+    max: Vec3A::splat(f32::NEG_INFINITY),
+};
+
+fn ceil_log2(n: usize) -> usize {
+    (usize::BITS - (n.max(1) - 1).leading_zeros()) as usize
+}
+
+/// The BVH2 nodes over `tris` (root at 0, the children of an inner node adjacent) and
+/// the triangle order of the leaves. Leaves hold at most `max_leaf` triangles; the depth
+/// (root = 1) stays below `depth_limit`.
+fn build_nodes(tris: &[Tri], max_leaf: usize, depth_limit: usize) -> (Vec<BvhNode>, Vec<u32>) {
+    let (cent, bounds) = prim_bounds(tris);
+    let n = tris.len();
+    let mut idx: Vec<u32> = (0..n as u32).collect();
+    let mut nodes = vec![BvhNode::default()];
+    // (node, start, end, depth)
+    let mut work = vec![(0usize, 0usize, n, 1usize)];
+    while let Some((node, start, end, depth)) = work.pop() {
+        let count = end - start;
+        let (mut bb, mut cb) = (EMPTY, EMPTY);
+        for &i in &idx[start..end] {
+            grow(&mut bb, &bounds[i as usize]);
+            let c = cent[i as usize];
+            grow(&mut cb, &Aabb::new(c, c));
+        }
+        nodes[node].aabb = bb;
+        let leaf = |nodes: &mut Vec<BvhNode>| {
+            nodes[node].prim_count = count as u32;
+            nodes[node].first_index = start as u32;
+        };
+        if count <= 1 {
+            leaf(&mut nodes);
+            continue;
+        }
+        let extent = cb.max - cb.min;
+        // Forced median: the subtree's depth is then at most depth + ceil(log2 count).
+        let force = depth + ceil_log2(count) + 1 >= depth_limit;
+        let mut mid = None;
+        if !force && extent.max_element() > 0.0 {
+            let (split, cost) = sah_split(&idx[start..end], &cent, &bounds, &cb);
+            let leaf_cost = count as f32;
+            if count <= max_leaf && leaf_cost <= cost {
+                leaf(&mut nodes);
+                continue;
+            }
+            if let Some((axis, bin)) = split {
+                let scale = BINS as f32 / extent[axis];
+                let lo = cb.min[axis];
+                let m = partition(&mut idx[start..end], |i| {
+                    bin_of(cent[i as usize][axis], lo, scale) <= bin
+                });
+                if m > 0 && m < count {
+                    mid = Some(start + m);
+                }
+            }
+        } else if count <= max_leaf && extent.max_element() <= 0.0 {
+            // Coincident centroids: nothing to separate.
+            leaf(&mut nodes);
+            continue;
+        }
+        let mid = mid.unwrap_or_else(|| {
+            let half = count / 2;
+            let axis = extent.max_position();
+            if extent[axis] > 0.0 {
+                idx[start..end].select_nth_unstable_by(half, |&a, &b| {
+                    cent[a as usize][axis]
+                        .total_cmp(&cent[b as usize][axis])
+                        .then(a.cmp(&b))
+                });
+            }
+            start + half
+        });
+        let left = nodes.len();
+        nodes.push(BvhNode::default());
+        nodes.push(BvhNode::default());
+        nodes[node].prim_count = 0;
+        nodes[node].first_index = left as u32;
+        work.push((left + 1, mid, end, depth + 1));
+        work.push((left, start, mid, depth + 1));
+    }
+    (nodes, idx)
+}
+
+#[inline]
+fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
+    (((c - lo) * scale) as usize).min(BINS - 1)
+}
+
+/// The best binned SAH split of `prims`: (axis, last bin of the left side) and its cost
+/// in triangle tests, relative to the parent's area.
+fn sah_split(prims: &[u32], cent: &[Vec3A], bounds: &[Aabb], cb: &Aabb) -> (Option<(usize, usize)>, f32) {
+    let extent = cb.max - cb.min;
+    let mut best = (None, f32::INFINITY);
+    let mut parent = EMPTY;
+    for &i in prims {
+        grow(&mut parent, &bounds[i as usize]);
+    }
+    let pa = half_area(&parent).max(f32::MIN_POSITIVE);
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 {
+            continue;
+        }
+        let scale = BINS as f32 / extent[axis];
+        let lo = cb.min[axis];
+        let mut bin_box = [EMPTY; BINS];
+        let mut bin_n = [0u32; BINS];
+        for &i in prims {
+            let b = bin_of(cent[i as usize][axis], lo, scale);
+            grow(&mut bin_box[b], &bounds[i as usize]);
+            bin_n[b] += 1;
+        }
+        // Sweep: areas and counts of the right side from the right.
+        let mut right_area = [0.0f32; BINS];
+        let mut right_n = [0u32; BINS];
+        let (mut acc, mut accn) = (EMPTY, 0u32);
+        for b in (1..BINS).rev() {
+            grow(&mut acc, &bin_box[b]);
+            accn += bin_n[b];
+            right_area[b] = half_area(&acc);
+            right_n[b] = accn;
+        }
+        let (mut acc, mut accn) = (EMPTY, 0u32);
+        for b in 0..BINS - 1 {
+            grow(&mut acc, &bin_box[b]);
+            accn += bin_n[b];
+            let rn = right_n[b + 1];
+            if accn == 0 || rn == 0 {
+                continue;
+            }
+            let cost = TRAVERSAL_COST + (half_area(&acc) * accn as f32 + right_area[b + 1] * rn as f32) / pa;
+            if cost < best.1 {
+                best = (Some((axis, b)), cost);
+            }
+        }
+    }
+    best
+}
+
+/// Moves the elements for which `left` holds to the front (stable in neither half);
+/// returns how many there are.
+fn partition(v: &mut [u32], left: impl Fn(u32) -> bool) -> usize {
+    let mut m = 0;
+    for k in 0..v.len() {
+        if left(v[k]) {
+            v.swap(m, k);
+            m += 1;
+        }
+    }
+    m
 }
 
 fn depth(nodes: &[BvhNode]) -> usize {
@@ -92,11 +270,17 @@ pub fn slab(node: &BvhNode, o: Vec3, inv: Vec3, tmax: f32) -> f32 {
 
 /// A CWBVH over `tris` (already in BVH2 order) placed at `node_offset` in a shared node
 /// array, its leaves indexing a shared primitive array at `prim_offset` that holds global
-/// triangle indices (`tri_offset` + local).
+/// triangle indices (`tri_offset` + local). Converted by obvhs from a single-triangle
+/// BVH2 whose depth stays within the GPU's CWBVH stack (a wide level covers at least one
+/// binary level).
 pub fn build_cwbvh(tris: &[Tri], node_offset: u32, prim_offset: u32, tri_offset: u32) -> (Vec<CwNode>, Vec<u32>) {
-    let input = obvhs_triangles(tris);
-    let mut time = std::time::Duration::ZERO;
-    let cw = obvhs::cwbvh::builder::build_cwbvh_from_tris(&input, BvhBuildParams::medium_build(), &mut time);
+    let (nodes, order) = build_nodes(tris, 1, CWBVH_STACK);
+    let bvh2 = Bvh2 {
+        nodes,
+        primitive_indices: order,
+        ..Default::default()
+    };
+    let cw = obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(&bvh2, 3, true, false);
     let mut nodes = cw.nodes;
     for n in &mut nodes {
         n.child_base_idx += node_offset;

@@ -241,13 +241,33 @@ impl Hierarchy {
             return Err(Error::SceneValue {
                 path: scene.path.clone(),
                 key: "light".into(),
-                message: "no light reaches any surface: check the lights' positions and directions".into(),
+                message: format!(
+                    "none of the {} light paths traced (solver key reach_paths) reached a surface: check the \
+                     lights' positions and directions",
+                    p.reach_paths
+                ),
             });
         }
         let r0 = (0.7 * area / p.coarsest as f64).sqrt();
         let radius: Vec<f64> = (0..m).map(|l| r0 / (1u64 << l) as f64).collect();
         stats.radius_per_level = radius.iter().map(|&r| r as f32).collect();
         let expected = |a: f64, l: usize| 0.7 * a / (radius[l] * radius[l]);
+
+        // A pool smaller than the finest level's node count cannot give that level its
+        // density: the solve would lose light silently.
+        for (i, &a) in areas.iter().enumerate() {
+            let need = expected(a, m - 1).ceil();
+            if need > p.max_candidates as f64 {
+                return Err(Error::param(
+                    "max_candidates",
+                    format!(
+                        "{} caps the candidate pool of object {i} ({}) below the {need} nodes its finest level \
+                         needs; raise it, or lower coarsest or levels",
+                        p.max_candidates, scene.objects[i].name
+                    ),
+                ));
+            }
+        }
 
         // Candidates per object.
         let t = Instant::now();

@@ -9,6 +9,7 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::hierarchy::Hierarchy;
+use crate::output::Outputs;
 use crate::progress::Progress;
 use crate::scene::{Scene, Surface};
 use crate::transport::Solution;
@@ -86,18 +87,17 @@ pub fn render_with(
 }
 
 /// Renders the camera view of a solution, reading the indirect light from `level`.
-/// Lights that reach no node reach no lit surface: no shadow rays for them.
+/// Every light is tested at every pixel: a light that reaches no node (a narrow beam
+/// between them) still lights the surfaces it reaches.
 pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress: &Progress) -> Images {
-    let lights: Vec<bool> = (0..scene.lights.len())
-        .map(|i| sol.stats.nodes_lit_per_light.get(i).is_none_or(|&n| n > 0))
-        .collect();
+    let lights = vec![true; scene.lights.len()];
     render_with(scene, &lights, progress, |s, _| {
         sol.indirect_on(h, s.object as usize, s.p_obj, s.n_obj, level)
     })
 }
 
-/// Writes `stem.exr` (linear float RGB) and `stem.png` (gamma 2.2, clamped) in `dir`.
-pub fn write_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3]) -> Result<()> {
+/// Encodes `stem.exr` (linear float RGB) and `stem.png` (gamma 2.2, clamped) for `dir`.
+pub fn encode_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3], out: &mut Outputs) -> Result<()> {
     let exr_path = dir.join(format!("{stem}.exr"));
     // Compressed sequentially: the parallel writer stores blocks in completion order,
     // so the same image would not give the same bytes twice.
@@ -106,26 +106,49 @@ pub fn write_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3]) -> Result
         let p = px[pos.y() * w as usize + pos.x()];
         (p.x, p.y, p.z)
     });
+    let mut exr_bytes = std::io::Cursor::new(Vec::new());
     Image::from_channels((w as usize, h as usize), channels)
         .write()
         .non_parallel()
-        .to_file(&exr_path)
+        .to_buffered(&mut exr_bytes)
         .map_err(|e| Error::Output {
             path: exr_path.clone(),
             message: e.to_string(),
         })?;
+    out.add(exr_path, exr_bytes.into_inner());
     let png_path = dir.join(format!("{stem}.png"));
     let enc = |v: f32| (v.max(0.0).powf(1.0 / 2.2).min(1.0) * 255.0 + 0.5) as u8;
     let buf: Vec<u8> = px.iter().flat_map(|p| [enc(p.x), enc(p.y), enc(p.z)]).collect();
-    image::save_buffer(&png_path, &buf, w, h, image::ColorType::Rgb8).map_err(|e| Error::Output {
-        path: png_path,
-        message: e.to_string(),
-    })
+    let mut png = Vec::new();
+    use image::ImageEncoder as _;
+    image::codecs::png::PngEncoder::new(&mut png)
+        .write_image(&buf, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| Error::Output {
+            path: png_path.clone(),
+            message: e.to_string(),
+        })?;
+    out.add(png_path, png);
+    Ok(())
 }
 
-/// Writes direct, indirect and total images.
+/// Encodes direct, indirect and total images for `dir`.
+pub fn encode_all(dir: &Path, img: &Images, out: &mut Outputs) -> Result<()> {
+    encode_pair(dir, "direct", img.width, img.height, &img.direct, out)?;
+    encode_pair(dir, "indirect", img.width, img.height, &img.indirect, out)?;
+    encode_pair(dir, "total", img.width, img.height, &img.total(), out)
+}
+
+/// The files [`encode_all`] writes in `dir`.
+pub fn file_names(dir: &Path) -> Vec<std::path::PathBuf> {
+    ["direct", "indirect", "total"]
+        .iter()
+        .flat_map(|s| [dir.join(format!("{s}.exr")), dir.join(format!("{s}.png"))])
+        .collect()
+}
+
+/// Writes direct, indirect and total images (all or none).
 pub fn write_all(dir: &Path, img: &Images) -> Result<()> {
-    write_pair(dir, "direct", img.width, img.height, &img.direct)?;
-    write_pair(dir, "indirect", img.width, img.height, &img.indirect)?;
-    write_pair(dir, "total", img.width, img.height, &img.total())
+    let mut out = Outputs::default();
+    encode_all(dir, img, &mut out)?;
+    out.commit()
 }

@@ -12,7 +12,7 @@ use crate::transport::{cpu::node_world, reconstruct, Solution};
 
 /// Writes every node of every level. `E_ind` is the absolute value the solution holds at
 /// the node (for the delta hierarchy, the sum of the levels up to the node's own).
-pub fn write(path: &Path, scene: &Scene, h: &Hierarchy, sol: &Solution) -> Result<()> {
+pub fn encode(path: &Path, scene: &Scene, h: &Hierarchy, sol: &Solution) -> Result<Vec<u8>> {
     let mut out = Vec::with_capacity(64 + h.nodes.len() * 52);
     let props = ["x", "y", "z", "nx", "ny", "nz"];
     write!(
@@ -50,5 +50,5 @@ pub fn write(path: &Path, scene: &Scene, h: &Hierarchy, sol: &Solution) -> Resul
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, out).map_err(|e| Error::io(path, e))
+    Ok(out)
 }

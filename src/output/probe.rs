@@ -50,13 +50,13 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
         if vals.iter().any(|v| !v.is_finite()) {
             return Err(bad("values must be finite".into()));
         }
-        let n = Vec3::new(vals[3], vals[4], vals[5]);
-        if n.length() < 1e-12 {
+        let n = glam::DVec3::new(vals[3] as f64, vals[4] as f64, vals[5] as f64);
+        let Some(n) = crate::geom::unit_vector(n) else {
             return Err(bad("the normal has zero length".into()));
-        }
+        };
         out.push(Probe {
             p: Vec3::new(vals[0], vals[1], vals[2]),
-            n: n.normalize(),
+            n,
         });
     }
     if out.is_empty() {
@@ -71,7 +71,7 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
 
 /// Reads and parses a points file.
 pub fn read(path: &Path) -> Result<Vec<Probe>> {
-    let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+    let text = crate::limits::read_text(path, crate::limits::MAX_TEXT_BYTES)?;
     parse(path, &text)
 }
 

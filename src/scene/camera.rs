@@ -26,22 +26,28 @@ impl Camera {
             key: format!("camera.{key}"),
             message: message.into(),
         };
-        let all = [e.position, e.target, e.up].concat();
-        if all.iter().any(|c| !c.is_finite()) {
-            return Err(bad("position", "camera vectors must be finite"));
+        for (key, v) in [("position", e.position), ("target", e.target), ("up", e.up)] {
+            if v.iter().any(|c| !c.is_finite()) {
+                return Err(bad(key, &format!("{v:?} must be finite")));
+            }
         }
         if !(e.fov > 0.0 && e.fov < 180.0) {
             return Err(bad("fov", "must be in (0, 180) degrees"));
         }
-        if e.width == 0 || e.height == 0 || e.width > 16384 || e.height > 16384 {
-            return Err(bad("width", "image size must be within 1..=16384"));
+        for (key, v) in [("width", e.width), ("height", e.height)] {
+            if v == 0 || v > 16384 {
+                return Err(bad(key, &format!("{v} is outside 1..=16384 pixels")));
+            }
         }
-        let forward = (Vec3::from(e.target) - Vec3::from(e.position)).normalize_or_zero();
-        if forward == Vec3::ZERO {
+        let d = Vec3::from(e.target).as_dvec3() - Vec3::from(e.position).as_dvec3();
+        let Some(forward) = crate::geom::unit_vector(d) else {
             return Err(bad("target", "must differ from position"));
-        }
-        let right = forward.cross(Vec3::from(e.up)).normalize_or_zero();
-        if right == Vec3::ZERO {
+        };
+        let Some(up) = crate::geom::unit_vector(Vec3::from(e.up).as_dvec3()) else {
+            return Err(bad("up", "has zero length"));
+        };
+        let right = forward.cross(up).normalize_or_zero();
+        if right == Vec3::ZERO || forward.cross(up).length() < 1e-6 {
             return Err(bad("up", "must not be parallel to the viewing direction"));
         }
         Ok(Camera {

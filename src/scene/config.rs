@@ -10,8 +10,10 @@ use crate::params::SolverParams;
 pub struct SceneFile {
     #[serde(default)]
     pub object: Vec<ObjectEntry>,
+    /// `[[light]]` tables, checked key by key in `light::from_table` (serde's tagged
+    /// enums lose the key in their errors).
     #[serde(default)]
-    pub light: Vec<LightEntry>,
+    pub light: Vec<toml::Table>,
     pub camera: Option<CameraEntry>,
     #[serde(default)]
     pub solver: SolverParams,
@@ -31,46 +33,6 @@ pub struct ObjectEntry {
     pub scale: Option<f32>,
     /// Split every triangle into four, this many times.
     pub tessellate: Option<u32>,
-}
-
-/// `[[light]]`, tagged by `type`.
-#[derive(Debug, Deserialize)]
-#[serde(tag = "type", rename_all = "lowercase")]
-pub enum LightEntry {
-    Point(PointEntry),
-    Spot(SpotEntry),
-    Directional(DirectionalEntry),
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct PointEntry {
-    pub position: [f32; 3],
-    /// W/sr, RGB.
-    pub intensity: [f32; 3],
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SpotEntry {
-    pub position: [f32; 3],
-    pub target: Option<[f32; 3]>,
-    pub direction: Option<[f32; 3]>,
-    /// W/sr, RGB.
-    pub intensity: [f32; 3],
-    /// Degrees.
-    pub cutoff_angle: f32,
-    /// Degrees.
-    pub beam_width: f32,
-}
-
-#[derive(Debug, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DirectionalEntry {
-    /// Direction of travel.
-    pub direction: [f32; 3],
-    /// W/m² perpendicular to the direction, RGB.
-    pub irradiance: [f32; 3],
 }
 
 /// `[camera]`: a pinhole camera.

@@ -5,7 +5,6 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use super::config::LightEntry;
 use crate::error::{Error, Result};
 use crate::layout::{GpuLight, LIGHT_DIRECTIONAL, LIGHT_POINT, LIGHT_SPOT};
 
@@ -118,82 +117,152 @@ pub fn power(l: &GpuLight) -> Option<Vec3> {
     }
 }
 
-fn check3(path: &Path, key: String, v: [f32; 3], nonneg: bool) -> Result<Vec3> {
-    if v.iter().any(|c| !c.is_finite()) || (nonneg && v.iter().any(|&c| c < 0.0)) {
-        return Err(Error::SceneValue {
-            path: path.into(),
-            key,
-            message: format!("{v:?} must be finite{}", if nonneg { " and non-negative" } else { "" }),
-        });
-    }
-    Ok(Vec3::from(v))
+/// A `[[light]]` table read key by key, so that every error names `light[i].key`.
+struct Fields<'a> {
+    t: &'a toml::Table,
+    i: usize,
+    path: &'a Path,
 }
 
-fn unit(path: &Path, key: String, v: Vec3) -> Result<Vec3> {
-    let l = v.length();
-    if !(l > 1e-20 && l.is_finite()) {
-        return Err(Error::SceneValue {
-            path: path.into(),
-            key,
-            message: "direction has zero length".into(),
-        });
+impl Fields<'_> {
+    fn err(&self, key: &str, message: String) -> Error {
+        Error::SceneValue {
+            path: self.path.into(),
+            key: format!("light[{}].{key}", self.i),
+            message,
+        }
     }
-    Ok(v / l)
+
+    fn number(&self, key: &str, v: &toml::Value) -> Result<f32> {
+        match v {
+            toml::Value::Float(f) => Ok(*f as f32),
+            toml::Value::Integer(n) => Ok(*n as f32),
+            other => Err(self.err(key, format!("expected a number, found {}", other.type_str()))),
+        }
+    }
+
+    /// An optional three-vector of finite numbers (non-negative with `nonneg`).
+    fn vec3(&self, key: &str, nonneg: bool) -> Result<Option<Vec3>> {
+        let Some(v) = self.t.get(key) else { return Ok(None) };
+        let toml::Value::Array(a) = v else {
+            return Err(self.err(key, format!("expected an array of 3 numbers, found {}", v.type_str())));
+        };
+        if a.len() != 3 {
+            return Err(self.err(key, format!("expected an array of 3 numbers, found {}", a.len())));
+        }
+        let mut out = [0.0f32; 3];
+        for (o, x) in out.iter_mut().zip(a) {
+            *o = self.number(key, x)?;
+        }
+        if out.iter().any(|c| !c.is_finite()) || (nonneg && out.iter().any(|&c| c < 0.0)) {
+            return Err(self.err(
+                key,
+                format!(
+                    "{out:?} must be finite{}",
+                    if nonneg { " and non-negative" } else { "" }
+                ),
+            ));
+        }
+        Ok(Some(Vec3::from(out)))
+    }
+
+    fn required<T>(&self, key: &str, v: Result<Option<T>>) -> Result<T> {
+        v?.ok_or_else(|| self.err(key, "is missing".into()))
+    }
+
+    fn scalar(&self, key: &str) -> Result<Option<f32>> {
+        self.t.get(key).map(|v| self.number(key, v)).transpose()
+    }
+
+    /// A unit direction from `v` (the key it came from is `key`).
+    fn unit(&self, key: &str, v: Vec3, what: &str) -> Result<Vec3> {
+        crate::geom::unit_vector(v.as_dvec3()).ok_or_else(|| self.err(key, format!("{what} has zero length")))
+    }
 }
 
-/// Validates a `[[light]]` entry (number `i`, from 0) and converts it.
-pub fn from_entry(e: &LightEntry, i: usize, path: &Path) -> Result<GpuLight> {
-    let k = |f: &str| format!("light[{i}].{f}");
-    let bad = |key: String, message: String| Error::SceneValue {
-        path: path.into(),
-        key,
-        message,
+/// Validates `[[light]]` table number `i` (from 0) and converts it.
+pub fn from_table(t: &toml::Table, i: usize, path: &Path) -> Result<GpuLight> {
+    let f = Fields { t, i, path };
+    let kind = match t.get("type") {
+        None => return Err(f.err("type", "is missing (point, spot or directional)".into())),
+        Some(toml::Value::String(s)) => s.as_str(),
+        Some(v) => return Err(f.err("type", format!("expected a string, found {}", v.type_str()))),
     };
-    Ok(match e {
-        LightEntry::Point(p) => GpuLight {
-            position: check3(path, k("position"), p.position, false)?.into(),
+    let allowed: &[&str] = match kind {
+        "point" => &["type", "position", "intensity"],
+        "directional" => &["type", "direction", "irradiance"],
+        "spot" => &[
+            "type",
+            "position",
+            "target",
+            "direction",
+            "intensity",
+            "cutoff_angle",
+            "beam_width",
+        ],
+        other => {
+            return Err(f.err(
+                "type",
+                format!("`{other}` is not a light type (point, spot or directional)"),
+            ))
+        }
+    };
+    if let Some(k) = t.keys().find(|k| !allowed.contains(&k.as_str())) {
+        return Err(f.err(
+            k,
+            format!(
+                "unknown key for a {kind} light (expected one of {})",
+                allowed[1..].join(", ")
+            ),
+        ));
+    }
+    Ok(match kind {
+        "point" => GpuLight {
+            position: f.required("position", f.vec3("position", false))?.into(),
             kind: LIGHT_POINT,
-            power: check3(path, k("intensity"), p.intensity, true)?.into(),
+            power: f.required("intensity", f.vec3("intensity", true))?.into(),
             ..Default::default()
         },
-        LightEntry::Directional(d) => GpuLight {
-            kind: LIGHT_DIRECTIONAL,
-            direction: unit(path, k("direction"), check3(path, k("direction"), d.direction, false)?)?.into(),
-            power: check3(path, k("irradiance"), d.irradiance, true)?.into(),
-            ..Default::default()
-        },
-        LightEntry::Spot(s) => {
-            let pos = check3(path, k("position"), s.position, false)?;
-            let dir = match (s.target, s.direction) {
-                (Some(t), None) => check3(path, k("target"), t, false)? - pos,
-                (None, Some(d)) => check3(path, k("direction"), d, false)?,
+        "directional" => {
+            let d = f.required("direction", f.vec3("direction", false))?;
+            GpuLight {
+                kind: LIGHT_DIRECTIONAL,
+                direction: f.unit("direction", d, "direction")?.into(),
+                power: f.required("irradiance", f.vec3("irradiance", true))?.into(),
+                ..Default::default()
+            }
+        }
+        _ => {
+            let pos = f.required("position", f.vec3("position", false))?;
+            let dir = match (f.vec3("target", false)?, f.vec3("direction", false)?) {
+                (Some(target), None) => {
+                    let d = target.as_dvec3() - pos.as_dvec3();
+                    crate::geom::unit_vector(d)
+                        .ok_or_else(|| f.err("target", "equals `position`: the spot points nowhere".into()))?
+                }
+                (None, Some(d)) => f.unit("direction", d, "direction")?,
                 _ => {
-                    return Err(bad(
-                        k("target"),
+                    return Err(f.err(
+                        "target",
                         "a spot light needs exactly one of `target` and `direction`".into(),
                     ))
                 }
             };
-            let dir = unit(path, k("direction"), dir)?;
-            if !(s.cutoff_angle > 0.0 && s.cutoff_angle <= 180.0) {
-                return Err(bad(
-                    k("cutoff_angle"),
-                    format!("{} must be in (0, 180] degrees", s.cutoff_angle),
-                ));
+            let cutoff = f.required("cutoff_angle", f.scalar("cutoff_angle"))?;
+            if !(cutoff > 0.0 && cutoff <= 180.0) {
+                return Err(f.err("cutoff_angle", format!("{cutoff} must be in (0, 180] degrees")));
             }
-            if !(s.beam_width >= 0.0 && s.beam_width <= s.cutoff_angle) {
-                return Err(bad(
-                    k("beam_width"),
-                    format!("{} must be in [0, cutoff_angle]", s.beam_width),
-                ));
+            let beam = f.required("beam_width", f.scalar("beam_width"))?;
+            if !(beam >= 0.0 && beam <= cutoff) {
+                return Err(f.err("beam_width", format!("{beam} must be in [0, cutoff_angle]")));
             }
             GpuLight {
                 position: pos.into(),
                 kind: LIGHT_SPOT,
                 direction: dir.into(),
-                cutoff: s.cutoff_angle.to_radians(),
-                power: check3(path, k("intensity"), s.intensity, true)?.into(),
-                beam: s.beam_width.to_radians(),
+                cutoff: cutoff.to_radians(),
+                power: f.required("intensity", f.vec3("intensity", true))?.into(),
+                beam: beam.to_radians(),
             }
         }
     })

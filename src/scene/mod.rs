@@ -22,6 +22,7 @@ use crate::geom::ray::{offset_origin, tri_normal, tri_point};
 use crate::geom::transform::{xform_point, xform_vector, Affine};
 use crate::geom::{Hit, Ray, Transform};
 use crate::layout::{BvhNode, CwNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
+use crate::limits::{Limits, Part};
 use crate::params::{BvhKind, SolverParams};
 
 /// One scene object.
@@ -50,6 +51,15 @@ pub struct LoadReport {
     pub faces_without_material: usize,
     pub emissive_materials_ignored: Vec<String>,
     pub textures: usize,
+    /// What was read but not used (e.g. `map_Kd` options without effect), one line each.
+    pub notes: Vec<String>,
+    /// Exact duplicates of a triangle of the same mesh (the same three corners) dropped.
+    pub duplicate_dropped: usize,
+    /// Every file read (scene, meshes, material libraries, textures): outputs may not
+    /// overwrite them.
+    pub inputs: Vec<PathBuf>,
+    /// The memory this scene's solve plans for (bytes, estimated before any work).
+    pub planned_bytes: f64,
 }
 
 /// A scene ready for the solver.
@@ -93,35 +103,59 @@ pub struct Surface {
 }
 
 impl Scene {
-    /// Loads a scene file from disk; `overrides` replace `[solver]` keys.
+    /// Loads a scene file from disk; `overrides` replace `[solver]` keys. Resource limits
+    /// are the defaults ([`Limits::default`]).
     pub fn load(path: &Path, overrides: &[(String, toml::Value)]) -> Result<Scene> {
-        let text = std::fs::read_to_string(path).map_err(|e| Error::io(path, e))?;
+        Scene::load_with(path, overrides, &Limits::default())
+    }
+
+    /// [`Scene::load`] within `limits`.
+    pub fn load_with(path: &Path, overrides: &[(String, toml::Value)], limits: &Limits) -> Result<Scene> {
+        let text = crate::limits::read_text(path, crate::limits::MAX_TEXT_BYTES)?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let dir = if dir.as_os_str().is_empty() {
             PathBuf::from(".")
         } else {
             dir
         };
-        Scene::from_toml(&text, path, Source::Dir(dir), overrides)
+        Scene::from_toml_with(&text, path, Source::Dir(dir), overrides, limits)
     }
 
     /// The Cornell box shipped inside the binary.
     pub fn embedded_cornell(overrides: &[(String, toml::Value)]) -> Result<Scene> {
+        Scene::embedded_cornell_with(overrides, &Limits::default())
+    }
+
+    /// [`Scene::embedded_cornell`] within `limits`.
+    pub fn embedded_cornell_with(overrides: &[(String, toml::Value)], limits: &Limits) -> Result<Scene> {
         let src = Source::Embedded(source::EMBEDDED_CORNELL);
         let text = src.read(Path::new("cornell_box.toml"))?;
-        Scene::from_toml(
+        Scene::from_toml_with(
             &String::from_utf8_lossy(&text),
             &src.display(Path::new("cornell_box.toml")),
             src,
             overrides,
+            limits,
         )
     }
 
     /// Parses and loads a scene whose files come from `source`.
     pub fn from_toml(text: &str, path: &Path, source: Source, overrides: &[(String, toml::Value)]) -> Result<Scene> {
+        Scene::from_toml_with(text, path, source, overrides, &Limits::default())
+    }
+
+    /// [`Scene::from_toml`] within `limits`.
+    pub fn from_toml_with(
+        text: &str,
+        path: &Path,
+        source: Source,
+        overrides: &[(String, toml::Value)],
+        limits: &Limits,
+    ) -> Result<Scene> {
+        let text = crate::limits::strip_bom(text);
         let mut file: config::SceneFile = toml::from_str(text).map_err(|e| Error::SceneSyntax {
             path: path.into(),
-            message: e.to_string().trim_end().to_string(),
+            message: clip_lines(e.to_string().trim_end()),
         })?;
         file.solver.validate().map_err(|e| Error::SceneValue {
             path: path.into(),
@@ -149,12 +183,33 @@ impl Scene {
             .light
             .iter()
             .enumerate()
-            .map(|(i, l)| light::from_entry(l, i, path))
+            .map(|(i, l)| light::from_table(l, i, path))
             .collect::<Result<Vec<_>>>()?;
+        if lights.iter().all(|l| l.power.iter().all(|&c| c == 0.0)) {
+            return Err(Error::SceneValue {
+                path: path.into(),
+                key: "light".into(),
+                message: "every light has zero intensity or irradiance: everything would be black".into(),
+            });
+        }
+        // What the parameters alone ask for, before any mesh is read; checked again with
+        // the triangles in `finish`.
+        let camera = file.camera.as_ref().map(|c| Camera::from_entry(c, path)).transpose()?;
+        let placeholder = Camera::framing(Vec3::ZERO, Vec3::ONE);
+        plan_memory(
+            limits,
+            path,
+            0,
+            &file.solver,
+            camera.as_ref().unwrap_or(&placeholder),
+            file.object.len(),
+        )?;
         let mut b = Builder {
             cwbvh: file.solver.bvh == BvhKind::Cwbvh,
+            limits: *limits,
             ..Default::default()
         };
+        b.report.inputs.push(path.into());
         for (i, entry) in file.object.iter().enumerate() {
             b.add_object(&source, path, i, entry)?;
         }
@@ -278,6 +333,88 @@ impl Scene {
     }
 }
 
+/// The memory a solve of this scene will plan for, checked against `limits` before any
+/// work: triangles, the hierarchy's candidates and nodes (their counts follow from
+/// `coarsest`, `levels`, `candidate_factor` and `max_candidates` alone), rays in flight
+/// and the image. Returns the estimate in bytes; the error blames the largest part.
+fn plan_memory(
+    limits: &Limits,
+    path: &Path,
+    triangles: usize,
+    p: &SolverParams,
+    camera: &Camera,
+    objects: usize,
+) -> Result<f64> {
+    use crate::limits::{BYTES_PER_CANDIDATE, BYTES_PER_NODE, BYTES_PER_PIXEL, BYTES_PER_TRIANGLE};
+    let m = p.levels as i32;
+    // Level l holds about coarsest × 4^l nodes (r_l = r_0 / 2^l).
+    let nodes = p.coarsest as f64 * (4f64.powi(m) - 1.0) / 3.0;
+    let finest = p.coarsest as f64 * 4f64.powi(m - 1);
+    let candidates = (p.candidate_factor as f64 * finest).min(objects as f64 * p.max_candidates as f64);
+    let threads = rayon::current_num_threads() as f64;
+    let pixels = camera.width as f64 * camera.height as f64;
+    let parts = [
+        (
+            "object",
+            format!("{triangles} triangles"),
+            triangles as f64 * BYTES_PER_TRIANGLE as f64,
+        ),
+        (
+            "solver.coarsest",
+            format!(
+                "{:.3e} hierarchy nodes (coarsest = {}, levels = {m})",
+                nodes, p.coarsest
+            ),
+            nodes * BYTES_PER_NODE as f64,
+        ),
+        (
+            "solver.candidate_factor",
+            format!("{candidates:.3e} candidates"),
+            candidates * BYTES_PER_CANDIDATE as f64,
+        ),
+        (
+            "solver.rays",
+            format!("{} rays per integral on {threads} threads", p.rays),
+            p.rays as f64 * 64.0 * threads,
+        ),
+        (
+            "camera.width",
+            format!("a {}×{} image", camera.width, camera.height),
+            pixels * BYTES_PER_PIXEL as f64,
+        ),
+    ];
+    let largest = parts
+        .iter()
+        .max_by(|a, b| a.2.total_cmp(&b.2))
+        .map(|p| p.0)
+        .unwrap_or("solver");
+    let list: Vec<Part> = parts
+        .iter()
+        .map(|(_, what, bytes)| Part {
+            what: what.clone(),
+            bytes: *bytes,
+        })
+        .collect();
+    limits.check(path, largest, &list)?;
+    Ok(list.iter().map(|p| p.bytes).sum())
+}
+
+/// `message` with every line cut to 160 characters (a TOML error quotes the offending
+/// line, which may be as long as the file).
+fn clip_lines(message: &str) -> String {
+    message
+        .lines()
+        .map(|l| {
+            if l.chars().count() > 160 {
+                format!("{}…", l.chars().take(160).collect::<String>())
+            } else {
+                l.to_string()
+            }
+        })
+        .collect::<Vec<_>>()
+        .join("\n")
+}
+
 /// Replaces `[solver]` keys; each key is checked on its own so that an error names it.
 pub fn apply_overrides(params: &SolverParams, overrides: &[(String, toml::Value)]) -> Result<SolverParams> {
     let mut table = toml::Table::try_from(params).map_err(|e| Error::param("solver", e.to_string()))?;
@@ -299,6 +436,7 @@ pub fn apply_overrides(params: &SolverParams, overrides: &[(String, toml::Value)
 #[derive(Default)]
 struct Builder {
     cwbvh: bool,
+    limits: Limits,
     objects: Vec<SceneObject>,
     tris: Vec<Tri>,
     uvs: Vec<[f32; 6]>,
@@ -322,9 +460,15 @@ impl Builder {
             return Err(bad(key("scale"), format!("{scale} must be finite and positive")));
         }
         let rotate = Vec3::from(e.rotate.unwrap_or([0.0; 3]));
+        if !rotate.is_finite() {
+            return Err(bad(key("rotate"), format!("{:?} must be finite", rotate.to_array())));
+        }
         let translate = Vec3::from(e.translate.unwrap_or([0.0; 3]));
-        if !rotate.is_finite() || !translate.is_finite() {
-            return Err(bad(key("translate"), "transform values must be finite".into()));
+        if !translate.is_finite() {
+            return Err(bad(
+                key("translate"),
+                format!("{:?} must be finite", translate.to_array()),
+            ));
         }
         let tess = e.tessellate.unwrap_or(0);
         if tess > 8 {
@@ -333,8 +477,33 @@ impl Builder {
                 format!("{tess} is above 8 (65536× the triangles)"),
             ));
         }
+        if e.mesh.trim().is_empty() {
+            return Err(bad(key("mesh"), "is empty: give the OBJ file's path".into()));
+        }
         let rel = Path::new(&e.mesh);
-        let mut mesh = obj::load(source, rel)?;
+        // The OBJ text, its normalised copy and tobj's arrays: about 4× the file.
+        let read_limit = crate::limits::MAX_MESH_BYTES.min(self.limits.max_memory / 4);
+        let mut mesh = obj::load(source, rel, read_limit)?;
+        let after = mesh.tris.len() as f64 * 4f64.powi(tess as i32);
+        let loaded = self.tris.len() as f64;
+        self.limits.check(
+            scene_path,
+            &key(if tess > 0 { "tessellate" } else { "mesh" }),
+            &[Part {
+                what: format!(
+                    "{} triangles ({} in {}{})",
+                    (loaded + after) as u64,
+                    mesh.tris.len(),
+                    e.mesh,
+                    if tess > 0 {
+                        format!(" × 4^{tess}")
+                    } else {
+                        String::new()
+                    }
+                ),
+                bytes: (loaded + after) * crate::limits::BYTES_PER_TRIANGLE as f64,
+            }],
+        )?;
         for _ in 0..tess {
             let (t, u) = obj::tessellate(&mesh.tris, &mesh.uvs);
             mesh.tris = t;
@@ -347,6 +516,9 @@ impl Builder {
                 message: "no (non-degenerate) triangles".into(),
             });
         }
+        self.report.notes.append(&mut mesh.notes);
+        self.report.inputs.append(&mut mesh.inputs);
+        self.report.duplicate_dropped += mesh.duplicates;
         self.report.degenerate_dropped += mesh.degenerate;
         self.report.faces_without_material += mesh.unassigned;
         let mat_base = self.materials.len() as u32;
@@ -429,8 +601,12 @@ impl Builder {
             let kd = m.kd;
             let bad_kd = |msg: &str| Error::Mesh {
                 path: m.origin.clone(),
-                line: None,
-                message: format!("material `{}`: Kd {kd:?} {msg}", m.name),
+                line: m.kd_line,
+                message: format!(
+                    "material `{}` (used by {}): Kd {kd:?} {msg}",
+                    m.name,
+                    m.used_by.display()
+                ),
             };
             if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
                 return Err(bad_kd("must be finite and non-negative"));
@@ -450,6 +626,7 @@ impl Builder {
                         Some(k) => k as u32,
                         None => {
                             let (w, h, px) = texture::load(source, t)?;
+                            self.report.inputs.push(source.display(t));
                             let info = TextureInfo {
                                 offset: texels.len() as u32,
                                 width: w,
@@ -504,6 +681,14 @@ impl Builder {
         };
         self.report.triangles = self.tris.len();
         self.report.textures = textures.len();
+        self.report.planned_bytes = plan_memory(
+            &self.limits,
+            path,
+            self.tris.len(),
+            &params,
+            &camera,
+            self.objects.len(),
+        )?;
         Ok(Scene {
             path: path.into(),
             objects: self.objects,

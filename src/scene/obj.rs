@@ -1,7 +1,11 @@
-//! OBJ/MTL loading through tobj, with the checks tobj does not make: every malformed
-//! line is reported with its number, non-finite vertices are errors, degenerate
-//! triangles are dropped and counted.
+//! OBJ/MTL loading. The OBJ text is checked and normalised here line by line (every
+//! malformed line is reported with its number; a byte-order mark, comments, `v x y z w`
+//! and short `vt` lines are resolved) and then handed to tobj for faces, groups and
+//! materials. MTL files are parsed here in full: tobj panics on short colour lines and
+//! reads `map_Kd` options as part of the file name. Non-finite vertices are errors,
+//! degenerate triangles are dropped and counted.
 
+use std::cell::RefCell;
 use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
@@ -18,9 +22,15 @@ pub struct MtlData {
     pub kd: [f32; 3],
     /// `map_Kd`, relative to the scene source.
     pub texture: Option<PathBuf>,
+    /// `map_Kd -o u v` and `-s u v`: texture coordinates become `offset + scale * uv`.
+    pub uv_offset: [f32; 2],
+    pub uv_scale: [f32; 2],
     pub emissive: bool,
-    /// The OBJ file it was loaded for (for messages).
+    /// The file it was defined in and the line of its `Kd` (for messages).
     pub origin: PathBuf,
+    pub kd_line: Option<usize>,
+    /// The OBJ file whose `mtllib` read it.
+    pub used_by: PathBuf,
 }
 
 /// One OBJ file's triangles; `Tri::material` indexes `materials`.
@@ -33,40 +43,86 @@ pub struct LoadedMesh {
     pub degenerate: usize,
     /// Faces without a material (given a default grey).
     pub unassigned: usize,
+    /// Exact duplicates of an earlier triangle (the same three corners) dropped.
+    pub duplicates: usize,
+    /// Things read but not used, one line each (e.g. ignored `map_Kd` options).
+    pub notes: Vec<String>,
+    /// The files read: the OBJ and its material libraries.
+    pub inputs: Vec<PathBuf>,
 }
 
 /// Albedo of faces that have no material.
 pub const DEFAULT_KD: [f32; 3] = [0.8, 0.8, 0.8];
 
-/// Loads `rel` from `source`.
-pub fn load(source: &Source, rel: &Path) -> Result<LoadedMesh> {
-    let shown = source.display(rel);
-    let bytes = source.read(rel)?;
-    let text = String::from_utf8_lossy(&bytes);
-    if let Err((line, message)) = check_lines(&text) {
-        return Err(Error::Mesh {
-            path: shown,
-            line: Some(line),
-            message,
-        });
+/// At most this many characters of an offending line are quoted in a message.
+const QUOTE: usize = 80;
+
+/// `s`, cut to [`QUOTE`] characters.
+fn quote(s: &str) -> String {
+    if s.chars().count() <= QUOTE {
+        s.to_string()
+    } else {
+        format!("{}…", s.chars().take(QUOTE).collect::<String>())
     }
+}
+
+/// Loads `rel` from `source`; it and its material libraries may have at most `limit`
+/// bytes each.
+pub fn load(source: &Source, rel: &Path, limit: u64) -> Result<LoadedMesh> {
+    let shown = source.display(rel);
+    let bytes = source.read_limited(rel, limit)?;
+    let text = String::from_utf8_lossy(&bytes);
+    let clean = sanitize(crate::limits::strip_bom(&text)).map_err(|(line, message)| Error::Mesh {
+        path: shown.clone(),
+        line: Some(line),
+        message,
+    })?;
     let dir = rel.parent().map(Path::to_path_buf).unwrap_or_default();
-    let mtl_error = std::cell::RefCell::new(None);
+    let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
+    let materials: RefCell<Vec<MtlData>> = RefCell::new(Vec::new());
+    let notes: RefCell<Vec<String>> = RefCell::new(Vec::new());
+    let inputs: RefCell<Vec<PathBuf>> = RefCell::new(vec![shown.clone()]);
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
         ignore_points: true,
         ignore_lines: true,
     };
-    let (models, mats) = tobj::load_obj_buf(&mut Cursor::new(&bytes), &opts, |mtl| {
-        let p = dir.join(mtl);
-        match source.read(&p) {
-            Ok(b) => tobj::load_mtl_buf(&mut Cursor::new(b)),
-            Err(e) => {
-                *mtl_error.borrow_mut() = Some(e);
-                Err(tobj::LoadError::OpenFileFailed)
+    let (models, _) = tobj::load_obj_buf(&mut Cursor::new(clean.as_bytes()), &opts, |list| {
+        // `mtllib a.mtl b.mtl` names several files; tobj passes the whole list. tobj is
+        // given only the names (in order, so that its material ids index ours).
+        let base = materials.borrow().len();
+        let mut names = String::new();
+        for name in list.to_string_lossy().split_whitespace() {
+            let p = dir.join(name);
+            let parsed = source
+                .read_limited(&p, limit)
+                .map_err(|e| Error::Mesh {
+                    path: shown.clone(),
+                    line: None,
+                    message: format!("its material library could not be read: {e}"),
+                })
+                .and_then(|b| parse_mtl(&String::from_utf8_lossy(&b), &source.display(&p), &dir));
+            match parsed {
+                Ok((list, n)) => {
+                    inputs.borrow_mut().push(source.display(&p));
+                    for mut m in list {
+                        m.used_by = shown.clone();
+                        names.push_str("newmtl ");
+                        names.push_str(&m.name);
+                        names.push('\n');
+                        materials.borrow_mut().push(m);
+                    }
+                    notes.borrow_mut().extend(n);
+                }
+                Err(e) => {
+                    mtl_error.borrow_mut().get_or_insert(e);
+                    materials.borrow_mut().truncate(base);
+                    return Err(tobj::LoadError::OpenFileFailed);
+                }
             }
         }
+        tobj::load_mtl_buf(&mut Cursor::new(names.as_bytes()))
     })
     .map_err(|e| Error::Mesh {
         path: shown.clone(),
@@ -74,30 +130,17 @@ pub fn load(source: &Source, rel: &Path) -> Result<LoadedMesh> {
         message: format!("OBJ parse error: {e}"),
     })?;
     if let Some(e) = mtl_error.into_inner() {
-        return Err(Error::Mesh {
-            path: shown,
-            line: None,
-            message: format!("its material library could not be read: {e}"),
-        });
+        return Err(e);
     }
-    let mats = mats.map_err(|e| Error::Mesh {
-        path: shown.clone(),
-        line: None,
-        message: format!("material library: {e}"),
-    })?;
     let mut out = LoadedMesh {
-        materials: mats
-            .iter()
-            .map(|m| MtlData {
-                name: m.name.clone(),
-                kd: m.diffuse.unwrap_or(DEFAULT_KD),
-                texture: m.diffuse_texture.as_ref().map(|t| dir.join(t.replace('\\', "/"))),
-                emissive: m.emissive.is_some_and(|e| e.iter().any(|&c| c != 0.0)),
-                origin: shown.clone(),
-            })
-            .collect(),
+        materials: materials.into_inner(),
+        notes: notes.into_inner(),
+        inputs: inputs.into_inner(),
         ..Default::default()
     };
+    // Coincident copies of a triangle add nothing but doubled area and a traversal that
+    // must test every copy; the first one stays.
+    let mut seen = std::collections::HashSet::new();
     let default_material = out.materials.len() as u32;
     let mut any_uv = false;
     for model in &models {
@@ -105,11 +148,15 @@ pub fn load(source: &Source, rel: &Path) -> Result<LoadedMesh> {
         let has_uv = !m.texcoords.is_empty() && m.texcoord_indices.len() == m.indices.len();
         any_uv |= has_uv;
         let material = match m.material_id {
-            Some(id) if id < mats.len() => id as u32,
+            Some(id) if id < out.materials.len() => id as u32,
             _ => {
                 out.unassigned += m.indices.len() / 3;
                 default_material
             }
+        };
+        let (uv_o, uv_s) = match out.materials.get(material as usize) {
+            Some(md) => (md.uv_offset, md.uv_scale),
+            None => ([0.0; 2], [1.0; 2]),
         };
         for (f, idx) in m.indices.chunks_exact(3).enumerate() {
             let p = |i: u32| {
@@ -127,13 +174,19 @@ pub fn load(source: &Source, rel: &Path) -> Result<LoadedMesh> {
                 out.degenerate += 1;
                 continue;
             }
+            let mut key = [tri.v0, tri.v1, tri.v2].map(|v| v.map(f32::to_bits));
+            key.sort_unstable();
+            if !seen.insert(key) {
+                out.duplicates += 1;
+                continue;
+            }
             out.tris.push(tri);
             let mut uv = [0.0f32; 6];
             if has_uv {
                 for c in 0..3 {
                     let t = m.texcoord_indices[f * 3 + c] as usize * 2;
-                    uv[c * 2] = m.texcoords[t];
-                    uv[c * 2 + 1] = m.texcoords[t + 1];
+                    uv[c * 2] = uv_o[0] + uv_s[0] * m.texcoords[t];
+                    uv[c * 2 + 1] = uv_o[1] + uv_s[1] * m.texcoords[t + 1];
                 }
             }
             out.uvs.push(uv);
@@ -147,11 +200,319 @@ pub fn load(source: &Source, rel: &Path) -> Result<LoadedMesh> {
             name: "(default)".into(),
             kd: DEFAULT_KD,
             texture: None,
+            uv_offset: [0.0; 2],
+            uv_scale: [1.0; 2],
             emissive: false,
-            origin: shown,
+            origin: shown.clone(),
+            kd_line: None,
+            used_by: shown,
         });
     }
     Ok(out)
+}
+
+/// Parses `n` numbers that must be finite.
+fn finite_numbers(words: &[&str], what: &str) -> std::result::Result<Vec<f32>, String> {
+    words
+        .iter()
+        .map(|w| match w.parse::<f32>() {
+            Ok(x) if x.is_finite() => Ok(x),
+            Ok(_) => Err(format!("{what} `{}` is not finite", quote(w))),
+            Err(_) => Err(format!("{what} `{}` is not a number", quote(w))),
+        })
+        .collect()
+}
+
+/// Checks every line of an OBJ file and writes it the way tobj reads it without
+/// surprises: comments and a byte-order mark removed, `v x y z w` divided out, vertex
+/// colours dropped, `vt u` completed to `vt u 0`, point and line elements dropped. Line
+/// numbers are kept (a dropped line stays as an empty one), so every error names the
+/// line of the input. Errors: (line, message).
+pub fn sanitize(text: &str) -> std::result::Result<String, (usize, String)> {
+    let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
+    let mut out = String::with_capacity(text.len());
+    for (i, raw) in text.lines().enumerate() {
+        let line = i + 1;
+        let l = raw.split('#').next().unwrap_or("").trim();
+        let words: Vec<&str> = l.split_whitespace().collect();
+        let Some((&key, args)) = words.split_first() else {
+            out.push('\n');
+            continue;
+        };
+        let err = |m: String| (line, m);
+        match key {
+            "v" => {
+                if !(args.len() == 3 || args.len() == 4 || args.len() == 6) {
+                    return Err(err(format!(
+                        "vertex needs 3 coordinates (and optionally w or an RGB colour), found {} values: `{}`",
+                        args.len(),
+                        quote(l)
+                    )));
+                }
+                let c = finite_numbers(&args[..3], "vertex coordinate").map_err(err)?;
+                let mut p = [c[0], c[1], c[2]];
+                if args.len() == 4 {
+                    let w = finite_numbers(&args[3..4], "vertex weight w").map_err(err)?[0];
+                    if w == 0.0 {
+                        return Err(err("vertex weight w is 0".into()));
+                    }
+                    p = p.map(|x| x / w);
+                    if p.iter().any(|x| !x.is_finite()) {
+                        return Err(err(format!("vertex divided by w = {w} is not finite")));
+                    }
+                }
+                if args.len() == 6 {
+                    finite_numbers(&args[3..6], "vertex colour").map_err(err)?;
+                }
+                out.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
+                nv += 1;
+            }
+            "vt" => {
+                if args.is_empty() || args.len() > 3 {
+                    return Err(err(format!(
+                        "texture coordinate needs 1 to 3 numbers, found {}: `{}`",
+                        args.len(),
+                        quote(l)
+                    )));
+                }
+                let t = finite_numbers(args, "texture coordinate").map_err(err)?;
+                out.push_str(&format!("vt {} {}\n", t[0], t.get(1).copied().unwrap_or(0.0)));
+                nvt += 1;
+            }
+            "vn" => {
+                if args.len() != 3 {
+                    return Err(err(format!(
+                        "normal needs 3 numbers, found {}: `{}`",
+                        args.len(),
+                        quote(l)
+                    )));
+                }
+                let n = finite_numbers(args, "normal component").map_err(err)?;
+                out.push_str(&format!("vn {} {} {}\n", n[0], n[1], n[2]));
+                nvn += 1;
+            }
+            "f" => {
+                if args.len() < 3 {
+                    return Err(err(format!("face needs at least 3 vertices: `{}`", quote(l))));
+                }
+                for r in args {
+                    let parts: Vec<&str> = r.split('/').collect();
+                    if parts.len() > 3 {
+                        return Err(err(format!("face reference `{}` has more than 3 indices", quote(r))));
+                    }
+                    if parts[0].is_empty() {
+                        return Err(err(format!("face reference `{}` has no vertex index", quote(r))));
+                    }
+                    for (k, (what, n)) in [("vertex", nv), ("texture coordinate", nvt), ("normal", nvn)]
+                        .into_iter()
+                        .enumerate()
+                    {
+                        let Some(s) = parts.get(k).filter(|s| !s.is_empty()) else {
+                            continue;
+                        };
+                        match s.parse::<i64>() {
+                            Ok(x) if (x > 0 && x <= n) || (x < 0 && -x <= n) => {}
+                            Ok(x) => {
+                                return Err(err(format!("face refers to {what} {x}, but {n} are defined before it")))
+                            }
+                            Err(_) => return Err(err(format!("face reference `{}` is not an index", quote(r)))),
+                        }
+                    }
+                }
+                out.push_str(l);
+                out.push('\n');
+            }
+            "mtllib" | "usemtl" => {
+                if args.is_empty() {
+                    return Err(err(format!("`{key}` needs a name")));
+                }
+                out.push_str(key);
+                out.push(' ');
+                out.push_str(&args.join(" "));
+                out.push('\n');
+            }
+            "o" | "g" => {
+                out.push_str(l);
+                out.push('\n');
+            }
+            // Points, lines, smoothing groups, free-form geometry: not used.
+            _ => out.push('\n'),
+        }
+    }
+    Ok(out)
+}
+
+/// Parses one MTL file (`shown` in messages; `dir` the OBJ's directory, against which
+/// texture paths are resolved). Returns the materials and notes on what was ignored.
+pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, Vec<String>)> {
+    let mut out: Vec<MtlData> = Vec::new();
+    let mut notes = Vec::new();
+    for (i, raw) in crate::limits::strip_bom(text).lines().enumerate() {
+        let line = i + 1;
+        let err = |message: String| Error::Mesh {
+            path: shown.into(),
+            line: Some(line),
+            message,
+        };
+        let l = raw.split('#').next().unwrap_or("").trim();
+        let words: Vec<&str> = l.split_whitespace().collect();
+        let Some((&key, args)) = words.split_first() else {
+            continue;
+        };
+        if key == "newmtl" {
+            if args.is_empty() {
+                return Err(err("`newmtl` needs a material name".into()));
+            }
+            out.push(MtlData {
+                name: args.join(" "),
+                kd: DEFAULT_KD,
+                texture: None,
+                uv_offset: [0.0; 2],
+                uv_scale: [1.0; 2],
+                emissive: false,
+                origin: shown.into(),
+                kd_line: None,
+                used_by: PathBuf::new(),
+            });
+            continue;
+        }
+        let is_colour = matches!(key, "Ka" | "Kd" | "Ks" | "Ke" | "Tf");
+        let is_map = key == "map_Kd";
+        if !is_colour && !is_map {
+            continue;
+        }
+        // Statements before the first `newmtl` belong to no material: tobj drops them too.
+        let Some(cur) = out.last_mut() else { continue };
+        if is_colour {
+            let c = colour(key, args).map_err(err)?;
+            match key {
+                "Kd" => {
+                    cur.kd = c;
+                    cur.kd_line = Some(line);
+                }
+                "Ke" => cur.emissive = c.iter().any(|&x| x != 0.0),
+                _ => {}
+            }
+        } else {
+            let (file, o, s, ignored) = map_options(args).map_err(err)?;
+            cur.texture = Some(dir.join(file.replace('\\', "/")));
+            cur.uv_offset = o;
+            cur.uv_scale = s;
+            if !ignored.is_empty() {
+                notes.push(format!(
+                    "{}:{line}: map_Kd option(s) {} ignored (they do not change a diffuse albedo lookup here)",
+                    shown.display(),
+                    ignored.join(" ")
+                ));
+            }
+        }
+    }
+    Ok((out, notes))
+}
+
+/// `Kd r g b`, or `Kd r` meaning grey (the MTL specification: g and b default to r).
+fn colour(key: &str, args: &[&str]) -> std::result::Result<[f32; 3], String> {
+    if let Some(first) = args.first() {
+        if *first == "spectral" || *first == "xyz" {
+            return Err(format!("`{key} {first}` colours are not supported; give `{key} r g b`"));
+        }
+    }
+    if args.len() != 1 && args.len() != 3 {
+        return Err(format!("`{key}` needs 1 or 3 numbers (r [g b]), found {}", args.len()));
+    }
+    let v = finite_numbers(args, &format!("`{key}` value"))?;
+    Ok(if v.len() == 1 { [v[0]; 3] } else { [v[0], v[1], v[2]] })
+}
+
+/// `map_Kd [options] file`: the file name, uv offset and scale (`-o`, `-s`), and the
+/// options accepted without effect. Options that would change the albedo and that this
+/// renderer cannot honour (`-clamp on`, `-mm` other than `0 1`) are errors.
+type MapKd<'a> = (String, [f32; 2], [f32; 2], Vec<&'a str>);
+
+fn map_options<'a>(args: &[&'a str]) -> std::result::Result<MapKd<'a>, String> {
+    let (mut o, mut s) = ([0.0f32; 2], [1.0f32; 2]);
+    let mut ignored = Vec::new();
+    let mut k = 0;
+    let number = |w: &str| w.parse::<f32>().ok().filter(|x| x.is_finite());
+    while k < args.len() && args[k].starts_with('-') && args.len() - k > 1 {
+        let opt = args[k];
+        k += 1;
+        // The option's values: numbers, at most `max`, never the last word (the file).
+        let take_numbers = |max: usize, k: &mut usize| {
+            let mut v = Vec::new();
+            while v.len() < max && *k + 1 < args.len() {
+                match number(args[*k]) {
+                    Some(x) => {
+                        v.push(x);
+                        *k += 1;
+                    }
+                    None => break,
+                }
+            }
+            v
+        };
+        match opt {
+            "-o" | "-s" | "-t" => {
+                let v = take_numbers(3, &mut k);
+                if v.is_empty() {
+                    return Err(format!("map_Kd option `{opt}` needs 1 to 3 numbers"));
+                }
+                let u = v[0];
+                let vv = v.get(1).copied().unwrap_or(if opt == "-s" { 1.0 } else { 0.0 });
+                match opt {
+                    "-o" => o = [u, vv],
+                    "-s" => s = [u, vv],
+                    _ => ignored.push(opt),
+                }
+            }
+            "-mm" => {
+                let v = take_numbers(2, &mut k);
+                if v.len() != 2 {
+                    return Err("map_Kd option `-mm` needs 2 numbers (base gain)".into());
+                }
+                if v != [0.0, 1.0] {
+                    return Err(format!(
+                        "map_Kd option `-mm {} {}` (a remapped texture range) is not supported",
+                        v[0], v[1]
+                    ));
+                }
+            }
+            "-clamp" | "-blendu" | "-blendv" | "-cc" => {
+                let v = args.get(k).copied().unwrap_or("");
+                if v != "on" && v != "off" || k + 1 >= args.len() {
+                    return Err(format!("map_Kd option `{opt}` needs `on` or `off`"));
+                }
+                k += 1;
+                if opt == "-clamp" && v == "on" {
+                    return Err("map_Kd option `-clamp on` is not supported (textures repeat)".into());
+                }
+                if v == "on" && opt == "-cc" {
+                    ignored.push(opt);
+                }
+            }
+            "-boost" | "-texres" | "-bm" => {
+                if take_numbers(1, &mut k).len() != 1 {
+                    return Err(format!("map_Kd option `{opt}` needs a number"));
+                }
+                ignored.push(opt);
+            }
+            "-imfchan" => {
+                if k + 1 >= args.len() {
+                    return Err("map_Kd option `-imfchan` needs a channel".into());
+                }
+                k += 1;
+                ignored.push(opt);
+            }
+            _ => return Err(format!("unknown map_Kd option `{}`", quote(opt))),
+        }
+    }
+    if k >= args.len() {
+        return Err("`map_Kd` needs a file name".into());
+    }
+    if s.iter().any(|&x| x == 0.0) {
+        return Err("map_Kd option `-s` must not scale by 0".into());
+    }
+    Ok((args[k..].join(" "), o, s, ignored))
 }
 
 /// Zero-area (to float precision) or non-finite triangles.
@@ -197,81 +558,55 @@ pub fn tessellate(tris: &[Tri], uvs: &[[f32; 6]]) -> (Vec<Tri>, Vec<[f32; 6]>) {
     (out, out_uv)
 }
 
-/// Checks the lines tobj would accept silently or reject without a line number:
-/// vertices must be finite numbers, faces must reference existing vertices.
-fn check_lines(text: &str) -> std::result::Result<(), (usize, String)> {
-    let (mut nv, mut nvt) = (0i64, 0i64);
-    for (i, raw) in text.lines().enumerate() {
-        let line = i + 1;
-        let l = raw.split('#').next().unwrap_or("").trim();
-        let mut words = l.split_whitespace();
-        match words.next() {
-            Some("v") => {
-                let vals: Vec<&str> = words.collect();
-                if vals.len() < 3 {
-                    return Err((line, format!("vertex needs 3 coordinates: `{l}`")));
-                }
-                for w in &vals[..3] {
-                    match w.parse::<f32>() {
-                        Ok(x) if x.is_finite() => {}
-                        Ok(_) => return Err((line, format!("vertex coordinate `{w}` is not finite"))),
-                        Err(_) => return Err((line, format!("vertex coordinate `{w}` is not a number"))),
-                    }
-                }
-                nv += 1;
-            }
-            Some("vt") => {
-                for w in words.take(2) {
-                    if !w.parse::<f32>().is_ok_and(f32::is_finite) {
-                        return Err((line, format!("texture coordinate `{w}` is not a finite number")));
-                    }
-                }
-                nvt += 1;
-            }
-            Some("f") => {
-                let refs: Vec<&str> = words.collect();
-                if refs.len() < 3 {
-                    return Err((line, format!("face needs at least 3 vertices: `{l}`")));
-                }
-                for r in refs {
-                    let mut parts = r.split('/');
-                    let check = |s: Option<&str>, n: i64, what: &str| -> std::result::Result<(), String> {
-                        match s {
-                            None | Some("") => Ok(()),
-                            Some(s) => match s.parse::<i64>() {
-                                Ok(k) if (k > 0 && k <= n) || (k < 0 && -k <= n) => Ok(()),
-                                Ok(k) => Err(format!("face refers to {what} {k}, but {n} are defined before it")),
-                                Err(_) => Err(format!("face reference `{r}` is not an index")),
-                            },
-                        }
-                    };
-                    let v = parts.next();
-                    if v.is_none_or(str::is_empty) {
-                        return Err((line, format!("face reference `{r}` has no vertex index")));
-                    }
-                    check(v, nv, "vertex").map_err(|m| (line, m))?;
-                    check(parts.next(), nvt, "texture coordinate").map_err(|m| (line, m))?;
-                }
-            }
-            _ => {}
-        }
-    }
-    Ok(())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn reports_line_of_bad_vertex() {
-        let e = check_lines("v 0 0 0\nv 1 nan 0\n").unwrap_err();
+        let e = sanitize("v 0 0 0\nv 1 nan 0\n").unwrap_err();
         assert_eq!(e.0, 2);
-        let e = check_lines("v 0 0 0\nv 1 x 0\n").unwrap_err();
+        let e = sanitize("v 0 0 0\nv 1 x 0\n").unwrap_err();
         assert_eq!(e.0, 2);
-        let e = check_lines("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
+        let e = sanitize("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n").unwrap_err();
         assert_eq!(e.0, 4);
-        assert!(check_lines("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n").is_ok());
+        assert!(sanitize("v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\n").is_ok());
+        let e = sanitize("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1//1 2//1 3//1\n").unwrap_err();
+        assert!(e.0 == 4 && e.1.contains("normal 1"), "{e:?}");
+        let e = sanitize("vn nan nan nan\n").unwrap_err();
+        assert_eq!(e.0, 1);
+    }
+
+    #[test]
+    fn weights_and_short_texcoords_are_resolved() {
+        let s = sanitize("v 2 4 6 2\nvt 0.5\n# c\nv 1 1 1 0.1 0.2 0.3 # colour\n").unwrap();
+        assert_eq!(s, "v 1 2 3\nvt 0.5 0\n\nv 1 1 1\n");
+        assert!(sanitize("v 1 2 3 0\n").is_err());
+        assert!(sanitize("v 1 2 3 4 5\n").is_err());
+    }
+
+    #[test]
+    fn mtl_colours_and_map_options() {
+        let d = Path::new("");
+        let (m, _) = parse_mtl("newmtl a\nKd 0.5\nnewmtl b\nKd 0.1 0.2 0.3\n", d, d).unwrap();
+        assert_eq!(m[0].kd, [0.5; 3]);
+        assert_eq!(m[1].kd, [0.1, 0.2, 0.3]);
+        for bad in ["Kd", "Kd 0.5 0.5", "Ke 1 2", "Ka x", "Kd spectral a.rfl"] {
+            let e = parse_mtl(&format!("newmtl a\n{bad}\n"), Path::new("m.mtl"), d).unwrap_err();
+            assert!(e.to_string().starts_with("m.mtl:2:"), "{bad}: {e}");
+        }
+        let (m, notes) = parse_mtl("newmtl a\nmap_Kd -s 2 2 1 -o 0.5 0 -bm 1 tex dir/a b.png\n", d, d).unwrap();
+        assert_eq!(m[0].texture.as_deref(), Some(Path::new("tex dir/a b.png")));
+        assert_eq!((m[0].uv_scale, m[0].uv_offset), ([2.0, 2.0], [0.5, 0.0]));
+        assert_eq!(notes.len(), 1);
+        for bad in [
+            "map_Kd",
+            "map_Kd -clamp on t.png",
+            "map_Kd -mm 0.2 2 t.png",
+            "map_Kd -zz t.png",
+        ] {
+            assert!(parse_mtl(&format!("newmtl a\n{bad}\n"), d, d).is_err(), "{bad}");
+        }
     }
 
     #[test]

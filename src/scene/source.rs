@@ -4,6 +4,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::error::{Error, Result};
+use crate::limits::MAX_MESH_BYTES;
 
 /// The shipped Cornell box, embedded.
 pub const EMBEDDED_CORNELL: &[(&str, &[u8])] = &[
@@ -36,13 +37,15 @@ impl Source {
         }
     }
 
-    /// Reads `rel`.
+    /// Reads `rel` (at most [`MAX_MESH_BYTES`]).
     pub fn read(&self, rel: &Path) -> Result<Vec<u8>> {
+        self.read_limited(rel, MAX_MESH_BYTES)
+    }
+
+    /// Reads `rel`, at most `limit` bytes (see [`crate::limits::read_file`]).
+    pub fn read_limited(&self, rel: &Path, limit: u64) -> Result<Vec<u8>> {
         match self {
-            Source::Dir(d) => {
-                let p = d.join(rel);
-                std::fs::read(&p).map_err(|e| Error::io(p, e))
-            }
+            Source::Dir(d) => crate::limits::read_file(&d.join(rel), limit),
             Source::Embedded(files) => {
                 let key = rel.to_string_lossy().replace('\\', "/");
                 let key = key.trim_start_matches("./");

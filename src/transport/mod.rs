@@ -134,7 +134,8 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
     for (i, &n) in stats.nodes_lit_per_light.iter().enumerate() {
         if n == 0 {
             stats.skipped.push(format!(
-                "light {i} reaches no node (outside its cone, facing away, or blocked): left out of image rendering"
+                "light {i} reaches no node (outside its cone, facing away, or blocked): its direct light is in the \
+                 images and probes, but it adds no indirect light (raise coarsest or levels if its beam falls between nodes)"
             ));
         }
     }

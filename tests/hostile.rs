@@ -1,0 +1,722 @@
+//! Hostile and careless input (issue #12): every case gets a clear error that names the
+//! input (file, line or key) and exits 1, or the right answer; nothing panics or aborts;
+//! no output is half-written, stale, or written over an input.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const OBJ: &str = "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n";
+const MTL: &str = "newmtl a\nKd 0.5 0.5 0.5\n";
+const LIGHT: &str = "[[light]]\ntype = \"point\"\nposition = [0.2, 0.2, 0.2]\nintensity = [1.0, 1.0, 1.0]\n";
+const FAST: &str = "[solver]\nlevels = 2\ncoarsest = 20\nrays = 16\nbounces = 1\nsender_level = 1\ngather_levels = 1\n";
+/// A floor (y = 0, 2 × 2) under a light, seen by a camera from above.
+const FLOOR: &str = "mtllib m.mtl\nusemtl a\nv -1 0 -1\nv 1 0 -1\nv 1 0 1\nv -1 0 1\nf 1 3 2\nf 1 4 3\n";
+const CAMERA: &str =
+    "[camera]\nposition = [0.0, 3.0, 0.01]\ntarget = [0.0, 0.0, 0.0]\nfov = 60.0\nwidth = 32\nheight = 32\n";
+
+/// A scene directory: `s.toml`, `m.obj`, `m.mtl` and any extra files.
+struct Dir {
+    dir: tempfile::TempDir,
+}
+
+impl Dir {
+    fn new(toml: &str, obj: &str, mtl: &str) -> Dir {
+        let d = Dir { dir: common::tmpdir() };
+        d.write("s.toml", toml);
+        d.write("m.obj", obj);
+        d.write("m.mtl", mtl);
+        d
+    }
+
+    fn default_scene() -> Dir {
+        Dir::new(&format!("[[object]]\nmesh = \"m.obj\"\n\n{LIGHT}\n{FAST}"), OBJ, MTL)
+    }
+
+    fn path(&self, rel: &str) -> PathBuf {
+        self.dir.path().join(rel)
+    }
+
+    fn write(&self, rel: &str, text: &str) {
+        std::fs::write(self.path(rel), text).unwrap();
+    }
+
+    /// Runs meshrad here; returns (exit code, stderr, stdout).
+    fn run(&self, args: &[&str]) -> (i32, String, String) {
+        let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+            .args(args)
+            .current_dir(self.dir.path())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&o.stderr).into_owned();
+        assert!(!err.contains("panicked"), "panic for {args:?}: {err}");
+        let code = o
+            .status
+            .code()
+            .unwrap_or_else(|| panic!("killed by a signal for {args:?}: {err}"));
+        (code, err, String::from_utf8_lossy(&o.stdout).into_owned())
+    }
+
+    fn solve(&self, extra: &[&str]) -> (i32, String) {
+        let mut args = vec!["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"];
+        args.extend_from_slice(extra);
+        let (c, e, _) = self.run(&args);
+        (c, e)
+    }
+
+    /// Asserts that `args` fail with exit code 1 and a message holding every needle.
+    fn fails(&self, args: &[&str], needles: &[&str]) -> String {
+        let (code, err, _) = self.run(args);
+        assert_eq!(code, 1, "{args:?} should fail with exit 1:\n{err}");
+        for n in needles {
+            assert!(err.contains(n), "{args:?}: the error should name `{n}`:\n{err}");
+        }
+        err
+    }
+
+    fn solve_fails(&self, needles: &[&str]) -> String {
+        self.fails(&["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"], needles)
+    }
+}
+
+fn with_toml(toml: &str) -> Dir {
+    Dir::new(toml, OBJ, MTL)
+}
+
+fn default_toml() -> String {
+    format!("[[object]]\nmesh = \"m.obj\"\n\n{LIGHT}\n{FAST}")
+}
+
+#[test]
+fn short_mtl_colour_lines_follow_the_mtl_specification_or_name_the_line() {
+    // `Kd r` is grey (g and b default to r); `Ka`, `Ke` alike.
+    for ok in ["Kd 0.5", "Ka 0.5", "Ke 1", "Kd 0.25 0.5 0.125"] {
+        let d = Dir::new(&default_toml(), OBJ, &format!("newmtl a\n{ok}\n"));
+        let (c, e) = d.solve(&[]);
+        assert_eq!(c, 0, "{ok}: {e}");
+    }
+    for bad in ["Kd", "Kd 0.5 0.5", "Ke", "Ka x y z", "Kd 0.5 0.5 0.5 0.5"] {
+        let d = Dir::new(&default_toml(), OBJ, &format!("newmtl a\n{bad}\n"));
+        d.solve_fails(&["m.mtl:2"]);
+    }
+    let d = Dir::new(&default_toml(), OBJ, "newmtl\n");
+    d.solve_fails(&["m.mtl:1", "newmtl"]);
+}
+
+#[test]
+fn tessellation_beyond_memory_is_refused_before_it_starts() {
+    // A 2048-triangle grid tessellated 8 times: 134M triangles.
+    let mut obj = String::from("mtllib m.mtl\nusemtl a\n");
+    let n = 33;
+    for j in 0..n {
+        for i in 0..n {
+            obj += &format!("v {i} 0 {j}\n");
+        }
+    }
+    for j in 0..32 {
+        for i in 0..32 {
+            let a = j * n + i + 1;
+            obj += &format!("f {} {} {}\nf {} {} {}\n", a, a + n, a + 1, a + 1, a + n, a + n + 1);
+        }
+    }
+    let toml = default_toml().replace("mesh = \"m.obj\"", "mesh = \"m.obj\"\ntessellate = 8");
+    let d = Dir::new(&toml, &obj, MTL);
+    d.solve_fails(&["object[0].tessellate", "134217728 triangles", "over the limit"]);
+}
+
+#[test]
+fn devices_as_inputs_are_refused() {
+    let d = Dir::default_scene();
+    d.fails(
+        &["solve", "/dev/zero", "-q", "--out", "o"],
+        &["/dev/zero", "not a regular file"],
+    );
+    d.write("z.toml", &default_toml().replace("m.obj", "/dev/zero"));
+    d.fails(
+        &["solve", "z.toml", "-q", "--out", "o"],
+        &["/dev/zero", "not a regular file"],
+    );
+    d.fails(
+        &["probe", "s.toml", "--points", "/dev/zero", "-q"],
+        &["/dev/zero", "not a regular file"],
+    );
+    let d = Dir::new(
+        &default_toml(),
+        &OBJ.replace("mtllib m.mtl", "mtllib ../../../../../../../dev/zero"),
+        MTL,
+    );
+    d.solve_fails(&["dev/zero", "not a regular file"]);
+    let d = Dir::new(
+        &default_toml(),
+        OBJ,
+        "newmtl a\nKd 0.5 0.5 0.5\nmap_Kd ../../../../../../../../dev/zero\n",
+    );
+    d.solve_fails(&["dev/zero", "not a regular file"]);
+}
+
+#[test]
+fn repeated_and_fan_geometry_builds_and_solves() {
+    // The Cornell box's 36 faces repeated to a million: the exact duplicates are dropped
+    // (they were a BVH of depth 280 and minutes of build).
+    let src =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_original_mm.obj")).unwrap();
+    let (mut head, mut faces) = (String::new(), Vec::new());
+    for l in src.lines() {
+        if l.starts_with("f ") {
+            faces.push(l);
+        } else if !l.starts_with("usemtl") {
+            head += l;
+            head.push('\n');
+        }
+    }
+    let mut obj = head.replace("mtllib cornell_original_mm.mtl", "mtllib m.mtl") + "usemtl a\n";
+    for k in 0..1_000_000 {
+        obj += faces[k % faces.len()];
+        obj.push('\n');
+    }
+    let toml = "[[object]]\nmesh = \"m.obj\"\n[[light]]\ntype = \"point\"\nposition = [278.0, 400.0, 279.6]\n\
+                intensity = [1e5, 1e5, 1e5]\n[solver]\nlevels = 2\ncoarsest = 20\nrays = 16\nbounces = 1\n\
+                sender_level = 1\n";
+    let d = Dir::new(toml, &obj, MTL);
+    let (c, e, _) = d.run(&["solve", "s.toml", "--out", "o", "--backend", "cpu", "-q"]);
+    assert_eq!(c, 0, "{e}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path("o/stats.json")).unwrap()).unwrap();
+    let tris = stats["scene"]["triangles"].as_u64().unwrap();
+    assert!(tris <= 36, "{tris} triangles after dropping duplicates");
+    let dropped = stats["scene"]["load"]["duplicate_dropped"].as_u64().unwrap();
+    let degenerate = stats["scene"]["load"]["degenerate_dropped"].as_u64().unwrap();
+    assert_eq!(dropped + degenerate + tris, 1_000_000, "{e}");
+
+    // A convex 300-gon as one face: a fan of 298 slivers around one vertex.
+    let mut poly = String::from("mtllib m.mtl\nusemtl a\nv 0 0 0\n");
+    for i in 0..300 {
+        let a = std::f64::consts::TAU * i as f64 / 300.0;
+        poly += &format!("v {} 0 {}\n", a.cos(), a.sin());
+    }
+    poly += "f";
+    for i in 0..300 {
+        poly += &format!(" {}", i + 2);
+    }
+    poly.push('\n');
+    let toml = format!(
+        "[[object]]\nmesh = \"m.obj\"\n[[light]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = [1.0, 1.0, 1.0]\n{FAST}"
+    );
+    let d = Dir::new(&toml, &poly, MTL);
+    let (c, e) = d.solve(&[]);
+    assert_eq!(c, 0, "{e}");
+}
+
+#[test]
+fn absurd_sizes_are_refused_with_the_estimate() {
+    let d = with_toml(&default_toml().replace("coarsest = 20", "coarsest = 10000000"));
+    d.solve_fails(&["solver.coarsest", "hierarchy nodes", "over the limit"]);
+    let d = with_toml(&default_toml().replace("rays = 16", "rays = 4194304"));
+    d.solve_fails(&["rays", "4194304"]);
+    let d = with_toml(&format!(
+        "{}\n{}",
+        default_toml(),
+        CAMERA.replace("width = 32\nheight = 32", "width = 8192\nheight = 8192")
+    ));
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--out",
+            "o",
+            "--backend",
+            "cpu",
+            "--max-memory",
+            "1G",
+        ],
+        &["camera.width", "8192×8192", "1.0 GiB"],
+    );
+    d.fails(
+        &["solve", "s.toml", "-q", "--max-memory", "lots"],
+        &["--max-memory", "lots"],
+    );
+    let d = Dir::default_scene();
+    d.write("p.txt", "0.2 0 0.2 0 1 0\n");
+    d.fails(
+        &[
+            "reference",
+            "s.toml",
+            "--points",
+            "p.txt",
+            "--samples",
+            "4294967295",
+            "-q",
+        ],
+        &["--samples", "4294967295"],
+    );
+    d.fails(
+        &["reference", "s.toml", "--points", "p.txt", "--samples", "0", "-q"],
+        &["--samples 0"],
+    );
+    d.fails(
+        &["reference", "s.toml", "--points", "p.txt", "--samples", "1", "-q"],
+        &["--samples 1"],
+    );
+}
+
+/// Decodes a PNG written by a run.
+fn png(path: &Path) -> image::RgbImage {
+    image::open(path).unwrap().to_rgb8()
+}
+
+#[test]
+fn a_light_that_reaches_no_node_still_lights_the_image() {
+    // A 1° spot on the floor's centre: its disc (radius 3.5 cm from 2 m) falls between the
+    // nodes (about 0.2 m apart); a camera with a 10° view sees it over several pixels.
+    let toml = format!(
+        "[[object]]\nmesh = \"m.obj\"\n[[light]]\ntype = \"spot\"\nposition = [0.0, 2.0, 0.0]\n\
+         target = [0.0, 0.0, 0.0]\nintensity = [100.0, 100.0, 100.0]\ncutoff_angle = 1.0\nbeam_width = 0.5\n\
+         [[light]]\ntype = \"point\"\nposition = [0.0, 1.0, 0.0]\nintensity = [0.0, 0.0, 0.0]\n{}\n{FAST}",
+        CAMERA.replace("fov = 60.0", "fov = 10.0")
+    );
+    let d = Dir::new(&toml, FLOOR, MTL);
+    let (c, e, _) = d.run(&["solve", "s.toml", "--out", "o", "--backend", "cpu"]);
+    assert_eq!(c, 0, "{e}");
+    let stats = std::fs::read_to_string(d.path("o/stats.json")).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&stats).unwrap();
+    assert_eq!(
+        v["solve"]["nodes_lit_per_light"][0], 0,
+        "the test needs a spot between nodes"
+    );
+    assert!(e.contains("warning: light 0 reaches no node"), "{e}");
+    let img = png(&d.path("o/direct.png"));
+    let lit = img.pixels().filter(|p| p[0] > 0).count();
+    assert!(lit > 0, "the spot's disc is missing from direct.png");
+    // The probe at the centre agrees that it is lit.
+    d.write("p.txt", "0 0 0 0 1 0\n");
+    let (c, e, out) = d.run(&["probe", "s.toml", "--points", "p.txt", "--backend", "cpu", "-q"]);
+    assert_eq!(c, 0, "{e}");
+    let direct: f32 = out.lines().nth(1).unwrap().split(',').nth(6).unwrap().parse().unwrap();
+    assert!(direct > 20.0, "{out}");
+}
+
+#[test]
+fn a_scene_scaled_by_1e15_is_lit_in_the_images() {
+    let toml = format!(
+        "[[object]]\nmesh = \"m.obj\"\nscale = 1e15\n[[light]]\ntype = \"point\"\nposition = [0.0, 1e15, 0.0]\n\
+         intensity = [1e30, 1e30, 1e30]\n{}\n{FAST}",
+        CAMERA.replace("[0.0, 3.0, 0.01]", "[0.0, 3e15, 1e13]")
+    );
+    let d = Dir::new(&toml, FLOOR, MTL);
+    let (c, e) = d.solve(&[]);
+    assert_eq!(c, 0, "{e}");
+    let img = png(&d.path("o/direct.png"));
+    let lit = img.pixels().filter(|p| p[0] > 0).count();
+    assert!(lit > 100, "{lit} lit pixels");
+}
+
+#[test]
+fn a_byte_order_mark_is_not_part_of_the_first_line() {
+    for file in ["obj", "mtl", "toml"] {
+        let bom = |s: &str, f: &str| {
+            if f == file {
+                format!("\u{feff}{s}")
+            } else {
+                s.to_string()
+            }
+        };
+        let obj = bom(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nmtllib m.mtl\nusemtl a\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n",
+            "obj",
+        );
+        let d = Dir::new(
+            &bom(&default_toml(), "toml"),
+            &obj,
+            &bom("newmtl a\nKd 0.25 0.25 0.25\n", "mtl"),
+        );
+        let (c, e) = d.solve(&["--export-nodes", "n.ply"]);
+        assert_eq!(c, 0, "BOM in the {file}: {e}");
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(d.path("o/stats.json")).unwrap()).unwrap();
+        assert_eq!(v["scene"]["triangles"], 4, "BOM in the {file}");
+        assert_eq!(v["scene"]["load"]["faces_without_material"], 0, "BOM in the {file}");
+    }
+    let d = Dir::default_scene();
+    d.write("p.txt", "\u{feff}0.2 0 0.2 0 1 0\n");
+    let (c, e, _) = d.run(&["probe", "s.toml", "--points", "p.txt", "-q", "--backend", "cpu"]);
+    assert_eq!(c, 0, "{e}");
+}
+
+#[test]
+fn huge_and_tiny_vectors_are_normalised_without_overflow() {
+    let d = Dir::new(
+        &format!("[[object]]\nmesh = \"m.obj\"\n\n{LIGHT}\n{FAST}").replace("[0.2, 0.2, 0.2]", "[0.0, 1.0, 0.0]"),
+        FLOOR,
+        MTL,
+    );
+    d.write("p.txt", "0 0 0 0 1e20 0\n0.1 0 0.1 0 1e-30 0\n");
+    let (c, e, out) = d.run(&["probe", "s.toml", "--points", "p.txt", "-q", "--backend", "cpu"]);
+    assert_eq!(c, 0, "{e}");
+    for row in out.lines().skip(1) {
+        let f: Vec<f32> = row.split(',').map(|x| x.parse().unwrap()).collect();
+        assert_eq!((f[3], f[4], f[5]), (0.0, 1.0, 0.0), "{row}");
+        assert!(f[6] > 0.5, "{row}");
+    }
+    // A sun direction of huge components is a direction, not "zero length".
+    let toml = format!(
+        "[[object]]\nmesh = \"m.obj\"\n[[light]]\ntype = \"directional\"\ndirection = [1e30, -1e30, 0.0]\n\
+         irradiance = [1.0, 1.0, 1.0]\n{FAST}"
+    );
+    let (c, e) = Dir::new(&toml, FLOOR, MTL).solve(&[]);
+    assert_eq!(c, 0, "{e}");
+}
+
+#[test]
+fn parameters_that_would_silently_lose_all_indirect_light_are_errors() {
+    let with = |k: &str| with_toml(&format!("{}{k}\n", default_toml()));
+    with("approx_cos = 1.0").solve_fails(&["approx_cos"]);
+    with("max_candidates = 1").solve_fails(&["max_candidates", "finest level"]);
+    with("reach_paths = 1").solve_fails(&["reach_paths"]);
+    let d = with_toml(&default_toml().replace("intensity = [1.0, 1.0, 1.0]", "intensity = [0.0, 0.0, 0.0]"));
+    d.solve_fails(&["s.toml", "`light`", "zero"]);
+}
+
+#[test]
+fn a_device_that_is_not_there_is_an_error() {
+    let d = Dir::default_scene();
+    d.fails(
+        &["solve", "s.toml", "-q", "--out", "o", "--device", "nosuchgpu"],
+        &["nosuchgpu"],
+    );
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--out",
+            "o",
+            "--device",
+            "99",
+            "--backend",
+            "cpu",
+        ],
+        &["--device 99", "--backend cpu"],
+    );
+}
+
+#[test]
+fn malformed_obj_lines_name_the_line() {
+    let base = "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    for (tail, line, needle) in [
+        ("f 1//99 2//99 3//99\n", 6, "normal 99"),
+        ("vn nan nan nan\nf 1 2 3\n", 6, "not finite"),
+        ("vt x 0\nf 1 2 3\n", 6, "`x`"),
+        ("vt\nf 1 2 3\n", 6, "texture coordinate"),
+        ("v 1 1 1 0\nf 1 2 3\n", 6, "w is 0"),
+        ("v 1 2 3 4 5\nf 1 2 3\n", 6, "found 5 values"),
+        ("usemtl\nf 1 2 3\n", 6, "usemtl"),
+        ("f 1/2/3/4 2 3\n", 6, "more than 3"),
+        ("f 0 1 2\n", 6, "vertex 0"),
+    ] {
+        let d = Dir::new(&default_toml(), &format!("{base}{tail}"), MTL);
+        d.solve_fails(&[&format!("m.obj:{line}"), needle]);
+    }
+}
+
+#[test]
+fn several_material_libraries_and_map_options() {
+    let d = Dir::new(
+        &default_toml(),
+        &OBJ.replace("mtllib m.mtl\nusemtl a", "mtllib m.mtl b.mtl\nusemtl b"),
+        MTL,
+    );
+    d.write("b.mtl", "newmtl b\nKd 0.25 0.25 0.25\n");
+    let (c, e) = d.solve(&[]);
+    assert_eq!(c, 0, "{e}");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(d.path("o/stats.json")).unwrap()).unwrap();
+    assert_eq!(
+        v["scene"]["load"]["faces_without_material"], 0,
+        "material b from b.mtl: {e}"
+    );
+
+    // `map_Kd -s 2 2 1 tex.png`: the options are options, the file is tex.png.
+    let d = Dir::new(
+        &default_toml(),
+        &OBJ.replace(
+            "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3",
+            "vt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/2\nf 1/1 4/3 2/2\nf 2/1 4/2 3/3",
+        ),
+        "newmtl a\nKd 0.5 0.5 0.5\nmap_Kd -s 2 2 1 -blendu on tex.png\n",
+    );
+    image::RgbImage::from_pixel(4, 4, image::Rgb([128, 128, 128]))
+        .save(d.path("tex.png"))
+        .unwrap();
+    let (c, e) = d.solve(&[]);
+    assert_eq!(c, 0, "{e}");
+    let d = Dir::new(&default_toml(), OBJ, "newmtl a\nmap_Kd -clamp on tex.png\n");
+    d.solve_fails(&["m.mtl:2", "-clamp on"]);
+}
+
+#[test]
+fn errors_name_the_key_that_is_wrong() {
+    let cases: Vec<(String, &str)> = vec![
+        (
+            default_toml().replace("position = [0.2, 0.2, 0.2]", "position = [0.2, 0.2]"),
+            "light[0].position",
+        ),
+        (
+            default_toml().replace("intensity = [1.0, 1.0, 1.0]", "intensity = \"bright\""),
+            "light[0].intensity",
+        ),
+        (
+            default_toml().replace("position = [0.2, 0.2, 0.2]\n", ""),
+            "light[0].position",
+        ),
+        (default_toml().replace("intensity", "intensty"), "light[0].intensty"),
+        (
+            default_toml().replace("mesh = \"m.obj\"", "mesh = \"m.obj\"\nrotate = [nan, 0.0, 0.0]"),
+            "object[0].rotate",
+        ),
+        (
+            default_toml().replace("mesh = \"m.obj\"", "mesh = \"m.obj\"\ntranslate = [inf, 0.0, 0.0]"),
+            "object[0].translate",
+        ),
+        (
+            default_toml().replace("mesh = \"m.obj\"", "mesh = \"\""),
+            "object[0].mesh",
+        ),
+        (
+            format!(
+                "{}\n{}",
+                default_toml(),
+                CAMERA.replace("fov = 60.0", "fov = 60.0\nup = [nan, 1.0, 0.0]")
+            ),
+            "camera.up",
+        ),
+        (
+            format!("{}\n{}", default_toml(), CAMERA.replace("height = 32", "height = 0")),
+            "camera.height",
+        ),
+        (
+            default_toml().replace(
+                LIGHT,
+                "[[light]]\ntype = \"spot\"\nposition = [0.2, 0.2, 0.2]\ntarget = [0.2, 0.2, 0.2]\n\
+                 intensity = [1.0, 1.0, 1.0]\ncutoff_angle = 30.0\nbeam_width = 20.0\n",
+            ),
+            "light[0].target",
+        ),
+    ];
+    for (toml, key) in cases {
+        let err = with_toml(&toml).solve_fails(&["s.toml", key]);
+        assert!(err.lines().count() <= 8, "{err}");
+    }
+}
+
+#[test]
+fn messages_are_short_and_say_things_once() {
+    // The OS's text once, not twice.
+    let d = with_toml(&default_toml().replace("m.obj", "nope.obj"));
+    let err = d.solve_fails(&["nope.obj"]);
+    assert_eq!(err.matches("No such file or directory").count(), 1, "{err}");
+    // A 400 KB line is not echoed whole.
+    let long = format!("{}\nnote = \"{}", default_toml(), "x".repeat(400_000));
+    let err = with_toml(&long).solve_fails(&["s.toml"]);
+    assert!(err.len() < 4000, "{} bytes of error", err.len());
+}
+
+fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut v: Vec<(String, Vec<u8>)> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            (
+                e.file_name().to_string_lossy().into_owned(),
+                std::fs::read(e.path()).unwrap_or_default(),
+            )
+        })
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn outputs_never_overwrite_inputs_or_each_other() {
+    let d = Dir::default_scene();
+    let scene = std::fs::read(d.path("s.toml")).unwrap();
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--backend",
+            "cpu",
+            "--out",
+            "o",
+            "--export-nodes",
+            "s.toml",
+        ],
+        &["s.toml", "input"],
+    );
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--backend",
+            "cpu",
+            "--out",
+            "o",
+            "--export-nodes",
+            "m.mtl",
+        ],
+        &["m.mtl", "input"],
+    );
+    assert_eq!(std::fs::read(d.path("s.toml")).unwrap(), scene);
+    d.write("p.txt", "0.2 0 0.2 0 1 0\n");
+    d.fails(
+        &[
+            "probe",
+            "s.toml",
+            "--points",
+            "p.txt",
+            "--out",
+            "p.txt",
+            "-q",
+            "--backend",
+            "cpu",
+        ],
+        &["p.txt", "input"],
+    );
+    d.fails(
+        &[
+            "probe",
+            "s.toml",
+            "--points",
+            "p.txt",
+            "--out",
+            "./m.obj",
+            "-q",
+            "--backend",
+            "cpu",
+        ],
+        &["m.obj", "input"],
+    );
+    assert_eq!(std::fs::read_to_string(d.path("p.txt")).unwrap(), "0.2 0 0.2 0 1 0\n");
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--backend",
+            "cpu",
+            "--out",
+            "o",
+            "--export-nodes",
+            "o/stats.json",
+        ],
+        &["o/stats.json", "same file"],
+    );
+    d.fails(
+        &[
+            "reference",
+            "s.toml",
+            "--points",
+            "p.txt",
+            "--out",
+            "p.txt",
+            "--samples",
+            "4",
+            "-q",
+        ],
+        &["p.txt", "input"],
+    );
+}
+
+#[test]
+fn a_failing_run_leaves_earlier_outputs_as_they_were() {
+    let d = Dir::default_scene();
+    let (c, e) = d.solve(&[]);
+    assert_eq!(c, 0, "{e}");
+    let before = snapshot(&d.path("o"));
+    assert_eq!(before.len(), 7);
+    // --export-nodes into a directory that does not exist: refused before the solve,
+    // no image replaced, no stats.json missing.
+    d.write("s.toml", &default_toml().replace("rays = 16", "rays = 32"));
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--backend",
+            "cpu",
+            "--out",
+            "o",
+            "--export-nodes",
+            "nowhere/n.ply",
+        ],
+        &["nowhere/n.ply", "directory does not exist"],
+    );
+    assert_eq!(snapshot(&d.path("o")), before);
+    // --out naming an existing file fails before any work (the scene's light points
+    // away, which the hierarchy build would report).
+    d.write("f.txt", "x");
+    let away = default_toml().replace(
+        LIGHT,
+        "[[light]]\ntype = \"directional\"\ndirection = [0.0, 1.0, 0.0]\nirradiance = [1.0, 1.0, 1.0]\n",
+    );
+    let (c, e, _) =
+        Dir::new(&away, FLOOR, MTL).run(&["solve", "s.toml", "-q", "--backend", "cpu", "--out", "/dev/null/x"]);
+    assert_eq!(c, 1);
+    assert!(e.contains("/dev/null/x") && !e.contains("light paths"), "{e}");
+    d.fails(
+        &["solve", "s.toml", "-q", "--backend", "cpu", "--out", "f.txt"],
+        &["f.txt"],
+    );
+}
+
+/// A 64 KiB tmpfs, unmounted on drop.
+struct SmallDisk(PathBuf, #[allow(dead_code)] tempfile::TempDir);
+
+impl SmallDisk {
+    fn new() -> SmallDisk {
+        let t = common::tmpdir();
+        let p = t.path().join("disk");
+        std::fs::create_dir(&p).unwrap();
+        let ok = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", "size=64k", "tmpfs"])
+            .arg(&p)
+            .status()
+            .is_ok_and(|s| s.success());
+        assert!(
+            ok,
+            "mounting a small tmpfs failed: this test needs root (CI runs as root)"
+        );
+        SmallDisk(p, t)
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+#[test]
+fn a_full_disk_leaves_no_half_written_file() {
+    // The outputs of the framing camera's 256×256 images take about 140 KiB.
+    let d = Dir::default_scene();
+    let disk = SmallDisk::new();
+    let out = disk.0.join("o");
+    std::fs::create_dir(&out).unwrap();
+    std::fs::write(out.join("stats.json"), "old").unwrap();
+    let (c, e, _) = d.run(&[
+        "solve",
+        "s.toml",
+        "-q",
+        "--backend",
+        "cpu",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(c, 1, "{e}");
+    assert!(e.contains("No space left on device"), "{e}");
+    let left = snapshot(&out);
+    assert_eq!(left, vec![("stats.json".to_string(), b"old".to_vec())], "{e}");
+}
