@@ -85,7 +85,7 @@ pub fn parse_bytes(s: &str) -> std::result::Result<u64, String> {
         _ => return Err(format!("`{s}`: unknown unit `{unit}` (use K, M, G or T)")),
     };
     let bytes = v * mult as f64;
-    if !(bytes.is_finite() && bytes >= 1.0 && bytes < 1.8e19) {
+    if !(1.0..1.8e19).contains(&bytes) {
         return Err(format!("`{s}` is not a usable byte count"));
     }
     Ok(bytes as u64)

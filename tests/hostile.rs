@@ -720,3 +720,33 @@ fn a_full_disk_leaves_no_half_written_file() {
     let left = snapshot(&out);
     assert_eq!(left, vec![("stats.json".to_string(), b"old".to_vec())], "{e}");
 }
+
+#[test]
+fn meshes_under_meshrad_scenes_are_found_through_the_variable() {
+    let d = Dir::default_scene();
+    let lib = common::tmpdir();
+    std::fs::create_dir(lib.path().join("set")).unwrap();
+    std::fs::write(lib.path().join("set/m.obj"), OBJ).unwrap();
+    std::fs::write(lib.path().join("set/m.mtl"), MTL).unwrap();
+    d.write(
+        "v.toml",
+        &default_toml().replace("\"m.obj\"", "\"$MESHRAD_SCENES/set/m.obj\""),
+    );
+    let run = |dir: &Path| {
+        Command::new(env!("CARGO_BIN_EXE_meshrad"))
+            .args(["solve", "v.toml", "-q", "--backend", "cpu", "--out", "o"])
+            .current_dir(d.path(""))
+            .env("MESHRAD_SCENES", dir)
+            .output()
+            .unwrap()
+    };
+    let o = run(lib.path());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = run(Path::new("/nonexistent-scenes"));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1));
+    assert!(
+        err.contains("/nonexistent-scenes/set/m.obj") && err.contains("MESHRAD_SCENES"),
+        "{err}"
+    );
+}

@@ -23,7 +23,7 @@ use crate::reference::ReferenceOptions;
 use crate::scene::{Scene, Source};
 
 /// A scene of the table: the Cornell box is embedded; the others are TOML files (which
-/// read their meshes from `../shared/scenes`). `coarsest` is the paper's Table 1 count.
+/// read their meshes from `$MESHRAD_SCENES`, default `../shared/scenes`). `coarsest` is the paper's Table 1 count.
 #[derive(Clone, Debug)]
 pub struct SceneSpec {
     pub name: &'static str,

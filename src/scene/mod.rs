@@ -480,10 +480,25 @@ impl Builder {
         if e.mesh.trim().is_empty() {
             return Err(bad(key("mesh"), "is empty: give the OBJ file's path".into()));
         }
-        let rel = Path::new(&e.mesh);
+        let expanded = source::expand_scenes_var(&e.mesh);
+        let rel = expanded.as_deref().unwrap_or(Path::new(&e.mesh));
         // The OBJ text, its normalised copy and tobj's arrays: about 4× the file.
         let read_limit = crate::limits::MAX_MESH_BYTES.min(self.limits.max_memory / 4);
-        let mut mesh = obj::load(source, rel, read_limit)?;
+        let mut mesh = obj::load(source, rel, read_limit).map_err(|err| match (&expanded, err) {
+            (Some(p), Error::Io { path, error }) if !p.exists() => Error::Io {
+                path,
+                error: std::io::Error::new(
+                    error.kind(),
+                    format!(
+                        "{error} (object[{i}].mesh starts with ${}: set it to the folder of the public \
+                         scenes, default {}; scenes/README.md says where each comes from)",
+                        source::SCENES_VAR,
+                        source::SCENES_DEFAULT
+                    ),
+                ),
+            },
+            (_, err) => err,
+        })?;
         let after = mesh.tris.len() as f64 * 4f64.powi(tess as i32);
         let loaded = self.tris.len() as f64;
         self.limits.check(

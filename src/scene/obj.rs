@@ -509,7 +509,7 @@ fn map_options<'a>(args: &[&'a str]) -> std::result::Result<MapKd<'a>, String> {
     if k >= args.len() {
         return Err("`map_Kd` needs a file name".into());
     }
-    if s.iter().any(|&x| x == 0.0) {
+    if s.contains(&0.0) {
         return Err("map_Kd option `-s` must not scale by 0".into());
     }
     Ok((args[k..].join(" "), o, s, ignored))

@@ -63,3 +63,34 @@ impl Source {
         }
     }
 }
+
+/// The environment variable that says where the public test scenes live (Sponza, the
+/// Buddha, …; `scenes/README.md` says where each comes from).
+pub const SCENES_VAR: &str = "MESHRAD_SCENES";
+/// Its default, relative to the current directory (the repository root, for tests and
+/// benchmarks run by cargo).
+pub const SCENES_DEFAULT: &str = "../shared/scenes";
+
+/// The folder of the public test scenes: `$MESHRAD_SCENES`, else `../shared/scenes`.
+pub fn scenes_dir() -> PathBuf {
+    match std::env::var_os(SCENES_VAR) {
+        Some(v) if !v.is_empty() => PathBuf::from(v),
+        _ => PathBuf::from(SCENES_DEFAULT),
+    }
+}
+
+/// A mesh path of a scene file with a leading `$MESHRAD_SCENES/` (or
+/// `${MESHRAD_SCENES}/`) replaced by [`scenes_dir`], made absolute so that it does not
+/// depend on the scene file's folder; `None` when the path does not start with it.
+pub fn expand_scenes_var(mesh: &str) -> Option<PathBuf> {
+    let rest = ["$MESHRAD_SCENES/", "${MESHRAD_SCENES}/"]
+        .iter()
+        .find_map(|p| mesh.strip_prefix(p))?;
+    let dir = scenes_dir();
+    let dir = if dir.is_absolute() {
+        dir
+    } else {
+        std::env::current_dir().map(|c| c.join(&dir)).unwrap_or(dir)
+    };
+    Some(dir.join(rest))
+}

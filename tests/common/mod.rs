@@ -32,9 +32,10 @@ pub fn solve_cpu(scene: &Scene) -> (Hierarchy, Solution) {
     (r.hierarchy, r.solution)
 }
 
-/// Path of a file under ../shared/scenes.
+/// Path of a file of the public test scenes (`$MESHRAD_SCENES`, default
+/// `../shared/scenes` from the repository root, where cargo runs the tests).
 pub fn shared_scene(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes").join(rel)
+    meshrad::scene::source::scenes_dir().join(rel)
 }
 
 /// Relative error.
