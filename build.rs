@@ -131,9 +131,21 @@ fn write_constants(src: &Path, dst: &Path) {
         };
         let (name, rest) = rest.split_once(':').expect("pub const NAME: u32 = V;");
         let (ty, value) = rest.split_once('=').expect("pub const NAME: u32 = V;");
-        assert_eq!(ty.trim(), "u32", "only u32 constants are shared: {line}");
         let value = value.trim().trim_end_matches(';').replace('_', "");
-        let _ = writeln!(out, "#define {} {}u", name.trim(), value);
+        match ty.trim() {
+            "u32" => {
+                let _ = writeln!(out, "#define {} {}u", name.trim(), value);
+            }
+            // The literal as written: GLSL reads it to the same f32 as Rust does.
+            "f32" => {
+                assert!(
+                    value.contains('.') || value.contains('e'),
+                    "an f32 constant needs a decimal point: {line}"
+                );
+                let _ = writeln!(out, "#define {} {}", name.trim(), value);
+            }
+            _ => panic!("only u32 and f32 constants are shared: {line}"),
+        }
     }
     out.push_str("#endif\n");
     std::fs::write(dst, out).expect("write constants.glsl");

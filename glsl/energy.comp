@@ -5,15 +5,15 @@
 #version 460
 #include "layout.glsl"
 
-layout(local_size_x = 256) in;
+layout(local_size_x = ENERGY_GROUP) in;
 
-shared vec4 s_acc[256];
+shared vec4 s_acc[ENERGY_GROUP];
 
 void main() {
     GlobalsRef g = pc.g;
     uint t = gl_LocalInvocationID.x;
     vec4 acc = vec4(0.0);
-    for (uint k = t; k < pc.count; k += 256u) {
+    for (uint k = t; k < pc.count; k += ENERGY_GROUP) {
         uint j = pc.first + k;
         vec3 d = g.direct.v[j].xyz;
         if (pc.flag == 1u) {
@@ -25,7 +25,7 @@ void main() {
     }
     s_acc[t] = acc;
     barrier();
-    for (uint s = 128u; s > 0u; s >>= 1u) {
+    for (uint s = ENERGY_GROUP / 2u; s > 0u; s >>= 1u) {
         if (t < s) {
             s_acc[t] += s_acc[t + s];
         }

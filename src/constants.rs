@@ -1,6 +1,7 @@
 //! Constants shared with GLSL. `build.rs` parses this file (one `pub const NAME: u32 = V;`
-//! per line) and writes `#define NAME Vu` into the generated `constants.glsl`, so that
-//! each value is typed once.
+//! or `pub const NAME: f32 = V;` per line) and writes `#define NAME Vu` (or the float
+//! literal as written) into the generated `constants.glsl`, so that each value is typed
+//! once.
 
 /// The most hierarchy levels a scene may ask for.
 pub const MAX_LEVELS: u32 = 8;
@@ -30,3 +31,22 @@ pub const CLIP_SCALE: u32 = 50000;
 /// Counter slots: refined nodes of level l at `2l`, nodes it activates at `2l + 1`;
 /// nodes lit per light i at `LIGHT_COUNTERS + i`.
 pub const LIGHT_COUNTERS: u32 = 32;
+/// Threads of the one workgroup of the `energy` kernel (a power of two).
+pub const ENERGY_GROUP: u32 = 256;
+/// Stack entries of the GPU's CWBVH traversal; the CWBVH builder keeps within it.
+pub const CWBVH_STACK: u32 = 32;
+/// Specialization constant ids: the variant, whether textures are sampled, the BVH kind.
+pub const SPEC_VARIANT: u32 = 0;
+pub const SPEC_TEXTURED: u32 = 1;
+pub const SPEC_BVH_KIND: u32 = 2;
+/// The slab test's far distance is scaled by this (conservative traversal, Ize 2013).
+pub const SLAB_FAR: f32 = 1.000_000_4;
+/// Shadow rays towards a point or spot light stop at this fraction of the distance.
+pub const SHADOW_TMAX: f32 = 0.9999;
+/// Clip-plane directions are stored as i16 components of a unit vector times this.
+pub const CLIP_DIR: f32 = 32767.0;
+/// Ray offsets: 32 ulps along the normal, or `scale / OFFSET_FINE_DIV` (2^-21 of the
+/// scene's size) where a coordinate is within `scale / OFFSET_NEAR_DIV` of zero.
+pub const OFFSET_ULPS: f32 = 32.0;
+pub const OFFSET_NEAR_DIV: f32 = 32.0;
+pub const OFFSET_FINE_DIV: f32 = 2_097_152.0;

@@ -750,3 +750,64 @@ fn meshes_under_meshrad_scenes_are_found_through_the_variable() {
         "{err}"
     );
 }
+
+#[test]
+fn a_key_given_twice_is_an_error_and_overrides_complete_the_file() {
+    let d = Dir::default_scene();
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--backend",
+            "cpu",
+            "--out",
+            "o",
+            "--rays",
+            "16",
+            "--set",
+            "rays=64",
+        ],
+        &["`rays` is given twice", "--rays 16", "--set rays=64"],
+    );
+    d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "-q",
+            "--backend",
+            "cpu",
+            "--out",
+            "o",
+            "--set",
+            "kappa=2",
+            "--set",
+            "kappa=3",
+        ],
+        &["`kappa` is given twice"],
+    );
+    // The file alone is invalid (sender_level defaults to 4, above levels − 1); the
+    // override makes it valid, and the two are checked together.
+    d.write(
+        "l.toml",
+        &format!(
+            "[[object]]\nmesh = \"m.obj\"\n{LIGHT}\n[solver]\nlevels = 3\ncoarsest = 20\nrays = 16\nbounces = 1\n"
+        ),
+    );
+    d.fails(
+        &["solve", "l.toml", "-q", "--backend", "cpu", "--out", "o"],
+        &["l.toml", "sender_level"],
+    );
+    let (c, e, _) = d.run(&[
+        "solve",
+        "l.toml",
+        "-q",
+        "--backend",
+        "cpu",
+        "--out",
+        "o",
+        "--set",
+        "sender_level=2",
+    ]);
+    assert_eq!(c, 0, "{e}");
+}

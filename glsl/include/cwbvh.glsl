@@ -34,7 +34,7 @@ uint cw_intersect(CwNode nd, vec3 o, vec3 inv, uint oct_inv4, float tmax) {
         vec3 t0 = qmin * adj_inv + adj_o;
         vec3 t1 = qmax * adj_inv + adj_o;
         float tn = max(max(max(t0.x, t0.y), t0.z), 0.0);
-        float tf = min(min(min(t1.x, t1.y), t1.z), tmax) * 1.0000004;
+        float tf = min(min(min(t1.x, t1.y), t1.z), tmax) * SLAB_FAR;
         if (tn <= tf) {
             bool inner = ((meta & (meta << 1u)) & 0x10u) != 0u;
             uint bit_index = (inner ? (meta ^ oct) : meta) & 0x1fu;
@@ -54,7 +54,7 @@ bool trace_cwbvh(CwNodeRef nodes, UintRef prims, TriRef tris, uint root, vec3 o,
     bool found = false;
     tri = NONE;
     tuv = vec3(0.0);
-    uvec2 stack[32];
+    uvec2 stack[CWBVH_STACK];
     uint sp = 0u;
     uvec2 cur = uvec2(root, 0x80000000u);
     uvec2 prim = uvec2(0u);

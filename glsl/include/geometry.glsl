@@ -38,11 +38,11 @@ vec3 tri_point(Tri t, float b1, float b2) {
 }
 
 vec3 offset_origin(vec3 p, vec3 n, float scale) {
-    float near_ = scale * (1.0 / 32.0);
-    float fine = scale * (1.0 / 2097152.0);
+    float near_ = scale * (1.0 / OFFSET_NEAR_DIV);
+    float fine = scale * (1.0 / OFFSET_FINE_DIV);
     vec3 o;
     for (int i = 0; i < 3; i++) {
-        int of = int(32.0 * n[i]);
+        int of = int(OFFSET_ULPS * n[i]);
         int bits = floatBitsToInt(p[i]);
         float moved = intBitsToFloat(bits + (p[i] < 0.0 ? -of : of));
         o[i] = abs(p[i]) < near_ ? p[i] + fine * n[i] : moved;
@@ -118,7 +118,7 @@ float slab(BvhNode n, vec3 o, vec3 inv, float tmax) {
     vec3 mn = min(t0, t1);
     vec3 mx = max(t0, t1);
     float tnear = max(max(max(mn.x, mn.y), mn.z), 0.0);
-    float tfar = min(min(mx.x, mx.y), mx.z) * 1.0000004;
+    float tfar = min(min(mx.x, mx.y), mx.z) * SLAB_FAR;
     return (tnear <= tfar && tnear < tmax) ? tnear : FAR;
 }
 

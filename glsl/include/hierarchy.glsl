@@ -36,8 +36,8 @@ bool clip_ok(uvec4 clip, vec3 v, vec3 n, float h) {
         uint dm = i == 0u ? clip.y : clip.w;
         uint d = dm & 0xffffu;
         if (d != 0xffffu && ((dm >> 16u) & (1u << k)) != 0u) {
-            float ux = float(bitfieldExtract(int(u), 0, 16)) * (1.0 / 32767.0);
-            float uy = float(bitfieldExtract(int(u), 16, 16)) * (1.0 / 32767.0);
+            float ux = float(bitfieldExtract(int(u), 0, 16)) * (1.0 / CLIP_DIR);
+            float uy = float(bitfieldExtract(int(u), 16, 16)) * (1.0 / CLIP_DIR);
             if (x * ux + y * uy > float(d) * (1.0 / CLIP_SCALE) * h) {
                 ok = false;
             }

@@ -11,9 +11,9 @@
 
 // Specialization constants, set per solve (src/gpu/pipeline.rs): the variant, whether
 // any material is textured (texture sampling is compiled out otherwise), and the BVH.
-layout(constant_id = 0) const uint VARIANT = VARIANT_MODIFIED;
-layout(constant_id = 1) const bool TEXTURED = true;
-layout(constant_id = 2) const uint BVH_KIND = BVH_BVH2;
+layout(constant_id = SPEC_VARIANT) const uint VARIANT = VARIANT_MODIFIED;
+layout(constant_id = SPEC_TEXTURED) const bool TEXTURED = true;
+layout(constant_id = SPEC_BVH_KIND) const uint BVH_KIND = BVH_BVH2;
 
 struct Tri { vec3 v0; uint material; vec3 v1; uint pad0; vec3 v2; uint pad1; };
 struct TriUv { float uv[6]; };

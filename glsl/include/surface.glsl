@@ -106,7 +106,7 @@ bool light_sample(GpuLight l, vec3 x, vec3 n, vec3 o, out vec3 e, out vec3 to_li
         e *= f;
     }
     to_light = l.position - o;
-    tmax = 0.9999;
+    tmax = SHADOW_TMAX;
     return true;
 }
 

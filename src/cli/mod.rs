@@ -165,14 +165,29 @@ pub fn main() -> ExitCode {
 
 impl SolverArgs {
     /// The `[solver]` overrides these flags ask for.
+    /// A key given twice (`--rays 16 --set rays=64`, or `--set` twice) is an error, not a
+    /// silent choice.
     pub fn overrides(&self) -> Result<Vec<(String, toml::Value)>> {
-        let mut o = Vec::new();
+        let mut o: Vec<(String, toml::Value)> = Vec::new();
+        let mut given: Vec<(String, String)> = Vec::new();
+        let mut add = |k: String, v: toml::Value, flag: String| -> Result<()> {
+            if let Some((_, first)) = given.iter().find(|(g, _)| *g == k) {
+                anyhow::bail!("`{k}` is given twice ({first} and {flag}): give it once");
+            }
+            given.push((k.clone(), flag));
+            o.push((k, v));
+            Ok(())
+        };
         if let Some(v) = self.variant {
-            o.push(("variant".into(), toml::Value::String(v.name().into())));
+            add(
+                "variant".into(),
+                toml::Value::String(v.name().into()),
+                format!("--variant {}", v.name()),
+            )?;
         }
         for (k, v) in [("bounces", self.bounces), ("rays", self.rays), ("seed", self.seed)] {
             if let Some(v) = v {
-                o.push((k.into(), toml::Value::Integer(v as i64)));
+                add(k.into(), toml::Value::Integer(v as i64), format!("--{k} {v}"))?;
             }
         }
         for s in &self.set {
@@ -183,7 +198,7 @@ impl SolverArgs {
                 .ok()
                 .and_then(|mut t| t.remove("v"))
                 .unwrap_or_else(|| toml::Value::String(v.to_string()));
-            o.push((k.trim().to_string(), value));
+            add(k.trim().to_string(), value, format!("--set {s}"))?;
         }
         Ok(o)
     }

@@ -18,8 +18,8 @@ use crate::layout::{BvhNode, CwNode, Tri};
 
 /// Traversal stack entries; a BVH deeper than this is rejected at build time.
 pub const BVH_STACK: usize = crate::constants::BVH_STACK as usize;
-/// Stack entries of the GPU's CWBVH traversal (`stack[32]` in `glsl/include/cwbvh.glsl`).
-pub const CWBVH_STACK: usize = 32;
+/// Stack entries of the GPU's CWBVH traversal (`glsl/include/cwbvh.glsl`).
+pub const CWBVH_STACK: usize = crate::constants::CWBVH_STACK as usize;
 
 /// Largest leaf of the BVH2.
 const MAX_LEAF: usize = 8;
@@ -260,7 +260,7 @@ pub fn slab(node: &BvhNode, o: Vec3, inv: Vec3, tmax: f32) -> f32 {
     let t0 = (Vec3::from(node.aabb.min) - o) * inv;
     let t1 = (Vec3::from(node.aabb.max) - o) * inv;
     let tnear = t0.min(t1).max_element().max(0.0);
-    let tfar = t0.max(t1).min_element() * 1.000_000_4;
+    let tfar = t0.max(t1).min_element() * crate::constants::SLAB_FAR;
     if tnear <= tfar && tnear < tmax {
         tnear
     } else {

@@ -114,11 +114,12 @@ pub fn tri_point(t: &Tri, b1: f32, b2: f32) -> Vec3 {
 /// small object.)
 #[inline]
 pub fn offset_origin(p: Vec3, n: Vec3, scale: f32) -> Vec3 {
-    let near = scale * (1.0 / 32.0);
-    let fine = scale * (1.0 / 2_097_152.0);
+    use crate::constants::{OFFSET_FINE_DIV, OFFSET_NEAR_DIV, OFFSET_ULPS};
+    let near = scale * (1.0 / OFFSET_NEAR_DIV);
+    let fine = scale * (1.0 / OFFSET_FINE_DIV);
     let mut out = [0.0f32; 3];
     for i in 0..3 {
-        let of = (32.0 * n[i]) as i32;
+        let of = (OFFSET_ULPS * n[i]) as i32;
         let bits = p[i].to_bits() as i32;
         let moved = f32::from_bits(bits.wrapping_add(if p[i] < 0.0 { -of } else { of }) as u32);
         out[i] = if p[i].abs() < near { p[i] + fine * n[i] } else { moved };

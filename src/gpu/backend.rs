@@ -69,6 +69,9 @@ pub struct GpuReport {
     pub validation_errors: u32,
     /// Kernels that were built but never dispatched in this solve.
     pub kernels_never_dispatched: Vec<String>,
+    /// Launches past the timestamp pool's capacity in one submission: dispatched, not in
+    /// the per-kernel times (0 unless a bounce records more than 4096 launches).
+    pub untimed_launches: u64,
     /// Work left out of this solve by construction, and why.
     pub skipped: Vec<String>,
 }
@@ -347,7 +350,7 @@ impl Backend for GpuBackend<'_> {
 
     fn direct(&mut self) -> Result<Vec<u32>> {
         // A solve starts here: its kernel times start from zero.
-        self.prof.totals.clear();
+        self.prof.clear();
         let all = self.push(0, self.h.nodes.len());
         let l0 = self.h.level_range(0);
         let mut e = self.push(l0.start, l0.len());
@@ -692,15 +695,15 @@ impl Backend for GpuBackend<'_> {
         let direct: Vec<Vec4> = self.b.direct.download(0, n)?;
         let indirect: Vec<Vec4> = self.b.indirect.download(0, n)?;
         self.report.validation_errors = self.ctx.validation_errors();
-        let used: Vec<&str> = self.prof.totals.keys().copied().collect();
         self.report.kernels_never_dispatched = self
             .k
             .all()
             .iter()
             .map(|l| l.kernel.name)
-            .filter(|name| !used.contains(name))
+            .filter(|name| !self.prof.launched(name))
             .map(String::from)
             .collect();
+        self.report.untimed_launches = self.prof.untimed.values().sum();
         if self.report.validation_errors > 0 {
             return Err(Error::Gpu(format!(
                 "the validation layer reported {} error(s); see stderr",

@@ -52,9 +52,18 @@ impl Kernel {
         };
         let data: [u32; 3] = [spec.variant, spec.textured as u32, spec.bvh];
         let entries = [
-            vk::SpecializationMapEntry::default().constant_id(0).offset(0).size(4),
-            vk::SpecializationMapEntry::default().constant_id(1).offset(4).size(4),
-            vk::SpecializationMapEntry::default().constant_id(2).offset(8).size(4),
+            vk::SpecializationMapEntry::default()
+                .constant_id(crate::constants::SPEC_VARIANT)
+                .offset(0)
+                .size(4),
+            vk::SpecializationMapEntry::default()
+                .constant_id(crate::constants::SPEC_TEXTURED)
+                .offset(4)
+                .size(4),
+            vk::SpecializationMapEntry::default()
+                .constant_id(crate::constants::SPEC_BVH_KIND)
+                .offset(8)
+                .size(4),
         ];
         let spec_info = vk::SpecializationInfo::default()
             .map_entries(&entries)

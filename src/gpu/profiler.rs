@@ -17,6 +17,9 @@ pub struct Profiler {
     pool: Option<vk::QueryPool>,
     labels: Vec<&'static str>,
     pub totals: BTreeMap<&'static str, (f64, u64)>,
+    /// Launches recorded past the pool's capacity in one command buffer: dispatched but
+    /// not timed (reported, so that `totals` is never silently short).
+    pub untimed: BTreeMap<&'static str, u64>,
 }
 
 impl Profiler {
@@ -35,7 +38,19 @@ impl Profiler {
             pool,
             labels: Vec::new(),
             totals: BTreeMap::new(),
+            untimed: BTreeMap::new(),
         })
+    }
+
+    /// Forgets the totals (a new solve starts).
+    pub fn clear(&mut self) {
+        self.totals.clear();
+        self.untimed.clear();
+    }
+
+    /// Whether `label` was launched (timed or not) since the last [`Profiler::clear`].
+    pub fn launched(&self, label: &str) -> bool {
+        self.totals.contains_key(label) || self.untimed.contains_key(label)
     }
 
     /// Resets the pool at the start of a command buffer.
@@ -49,10 +64,15 @@ impl Profiler {
 
     /// Wraps the commands `f` records in two timestamps labelled `label`.
     pub fn time(&mut self, cmd: vk::CommandBuffer, label: &'static str, f: impl FnOnce()) {
-        let Some(p) = self.pool.filter(|_| (self.labels.len() as u32 + 1) * 2 <= CAPACITY) else {
+        let Some(p) = self.pool else {
             f();
             return;
         };
+        if (self.labels.len() as u32 + 1) * 2 > CAPACITY {
+            *self.untimed.entry(label).or_insert(0) += 1;
+            f();
+            return;
+        }
         let q = self.labels.len() as u32 * 2;
         // SAFETY: recording state; query indices are within the pool and were reset.
         unsafe {

@@ -17,7 +17,7 @@ pub type Clip = [u8; 16];
 /// A clip without planes.
 pub const NO_CLIP: Clip = [0, 0, 0, 0, 0xff, 0xff, 0, 0, 0, 0, 0, 0, 0xff, 0xff, 0, 0];
 /// Scale of a clip plane's direction components.
-pub const CLIP_DIR: f32 = 32767.0;
+pub const CLIP_DIR: f32 = crate::constants::CLIP_DIR;
 
 /// The nearest of the 8 tangent directions at k·45° to `(x, y)`, without trigonometry
 /// (the same arithmetic on the GPU).

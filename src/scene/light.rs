@@ -92,7 +92,7 @@ pub fn light_sample(l: &GpuLight, x: Vec3, n: Vec3, o: Vec3) -> Option<LightSamp
     Some(LightSample {
         irradiance: e,
         to_light: q - o,
-        tmax: 0.9999,
+        tmax: crate::constants::SHADOW_TMAX,
     })
 }
 

@@ -157,12 +157,16 @@ impl Scene {
             path: path.into(),
             message: clip_lines(e.to_string().trim_end()),
         })?;
-        file.solver.validate().map_err(|e| Error::SceneValue {
-            path: path.into(),
-            key: "solver".into(),
-            message: e.to_string(),
-        })?;
-        if !overrides.is_empty() {
+        // The file's [solver], then the overrides, validated once: a file whose values
+        // are only valid together with an override (`levels = 3` and `--set
+        // sender_level=2`) is fine.
+        if overrides.is_empty() {
+            file.solver.validate().map_err(|e| Error::SceneValue {
+                path: path.into(),
+                key: "solver".into(),
+                message: e.to_string(),
+            })?;
+        } else {
             file.solver = apply_overrides(&file.solver, overrides)?;
         }
         if file.object.is_empty() {
