@@ -46,6 +46,14 @@ fn main() {
         let _ = writeln!(table, "    (\"{n}\", {}),", n.to_uppercase());
     }
     let _ = writeln!(table, "];");
+    let _ = writeln!(
+        table,
+        "/// The generated `constants.glsl` (for tests that compile the kernels again)."
+    );
+    let _ = writeln!(
+        table,
+        "pub const CONSTANTS_GLSL: &str = include_str!(concat!(env!(\"OUT_DIR\"), \"/include/constants.glsl\"));"
+    );
     std::fs::write(out.join("shaders.rs"), table).expect("write shaders.rs");
 }
 

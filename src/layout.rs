@@ -1,7 +1,8 @@
 //! Data that lives on the GPU as it lives on the CPU: `#[repr(C)]` + `Pod`, std430-safe,
 //! mirrored by name in `glsl/include/layout.glsl`. The CPU reference uses these very
 //! structs, so an upload is a `bytemuck::cast_slice`. Sizes and offsets are asserted here
-//! and the GLSL side is checked by `tests/layout.rs` against the generated header.
+//! and the GLSL side is checked by `tests/layout.rs` against the `Offset` decorations of
+//! the compiled kernels.
 
 use bytemuck::{Pod, Zeroable};
 

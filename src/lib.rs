@@ -21,11 +21,13 @@ pub mod output;
 pub mod params;
 pub mod progress;
 pub mod reference;
+pub mod run;
 pub mod scene;
 pub mod transport;
 
 pub use error::{Error, Result};
 pub use hierarchy::Hierarchy;
 pub use params::{SolverParams, Variant};
+pub use run::{solve, Run};
 pub use scene::Scene;
 pub use transport::Solution;

@@ -45,7 +45,7 @@ fn run(variant: Variant, light: [f64; 3], gpu: bool) -> Errors {
             })
             .expect("a Vulkan device (lavapipe in CI)"),
         );
-        let r = meshrad::cli::run_solver(&scene, Some(ctx.clone()), &meshrad::progress::Progress::hidden()).unwrap();
+        let r = meshrad::solve(&scene, Some(ctx.clone()), &meshrad::progress::Progress::hidden()).unwrap();
         assert_eq!(ctx.validation_errors(), 0);
         (r.hierarchy, r.solution)
     } else {

@@ -237,8 +237,8 @@ fn whole_solves_match_cpu() {
         let mut s = cornell(5, 64, variant);
         s.params.bounces = 3;
         let ctx = context();
-        let g = meshrad::cli::run_solver(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let c = meshrad::cli::run_solver(&s, None, &Progress::hidden()).unwrap();
+        let g = meshrad::solve(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let c = meshrad::solve(&s, None, &Progress::hidden()).unwrap();
         assert_eq!(g.solution.stats.integrals, c.solution.stats.integrals, "{variant:?}");
         for (bg, bc) in g.solution.stats.bounces.iter().zip(&c.solution.stats.bounces) {
             assert_eq!(bg.integrals_per_level, bc.integrals_per_level, "{variant:?}");
@@ -279,8 +279,8 @@ fn whole_solves_match_cpu() {
 fn gpu_solves_are_deterministic() {
     let s = cornell(4, 32, Variant::Approx);
     let ctx = context();
-    let a = meshrad::cli::run_solver(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
-    let b = meshrad::cli::run_solver(&s, Some(ctx), &Progress::hidden()).unwrap();
+    let a = meshrad::solve(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let b = meshrad::solve(&s, Some(ctx), &Progress::hidden()).unwrap();
     assert!(a.solution.values.indirect == b.solution.values.indirect);
     let _ = Vec4::ZERO;
 }
@@ -302,7 +302,7 @@ fn geometry_over_128_mib_solves() {
     let bytes = s.tris.len() * std::mem::size_of::<meshrad::layout::Tri>();
     assert!(bytes > 128 << 20, "only {bytes} bytes of triangles");
     let ctx = context();
-    let r = meshrad::cli::run_solver(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let r = meshrad::solve(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
     let (_, eind, _) = meshrad::analytic::furnace_expected(1.0, 0.5, 1.0, 1);
     let h = &r.hierarchy;
     let l = h.level_range(1);
@@ -345,8 +345,8 @@ fn cwbvh_matches_bvh2() {
     for which in 0..2 {
         let (a, b) = (load(which, "bvh2"), load(which, "cwbvh"));
         assert!(a.cw_nodes.is_empty() && !b.cw_nodes.is_empty());
-        let ra = meshrad::cli::run_solver(&a, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let rb = meshrad::cli::run_solver(&b, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let ra = meshrad::solve(&a, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let rb = meshrad::solve(&b, Some(ctx.clone()), &Progress::hidden()).unwrap();
         assert_eq!(ra.solution.stats.integrals, rb.solution.stats.integrals);
         let (x, y) = (&ra.solution.values.indirect, &rb.solution.values.indirect);
         let (mut e2, mut r2) = (0.0f64, 0.0f64);

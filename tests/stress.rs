@@ -157,7 +157,7 @@ fn albedo_near_one_converges() {
                 })
                 .expect("a Vulkan device"),
             );
-            let r = meshrad::cli::run_solver(&scene, Some(ctx.clone()), &Progress::hidden()).unwrap();
+            let r = meshrad::solve(&scene, Some(ctx.clone()), &Progress::hidden()).unwrap();
             assert_eq!(ctx.validation_errors(), 0);
             (r.hierarchy, r.solution)
         } else {

@@ -15,13 +15,13 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::geom::rng::Rng;
-use crate::gpu::{Context, GpuBackend};
+use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::output::probe::{self, Probe};
 use crate::progress::Progress;
 use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
-use crate::transport::{self, cpu::CpuBackend, Solution};
+use crate::transport::Solution;
 
 /// `n` probe points where the scene's camera sees a surface: the primary hits of random
 /// pixel positions. The error at them is the error a user sees in the image, and no point
@@ -122,23 +122,14 @@ pub fn measure(
     warmup: bool,
     progress: &Progress,
 ) -> Result<(Measured, Solution)> {
-    let hidden = Progress::hidden();
-    let (sol, backend, setup) = match ctx {
-        Some(ctx) => {
-            let t = Instant::now();
-            let mut b = GpuBackend::new(ctx, scene, h)?;
-            let setup = t.elapsed().as_secs_f64();
-            if warmup {
-                transport::solve(scene, &mut b, &hidden)?;
-            }
-            let s = transport::solve(scene, &mut b, progress)?;
-            (s, b.report.device.clone(), setup)
-        }
-        None => {
-            let mut b = CpuBackend::new(scene, h, &hidden);
-            (transport::solve(scene, &mut b, progress)?, "cpu".to_string(), 0.0)
-        }
-    };
+    let (sol, gpu) = crate::run::transport_on(scene, h, ctx, warmup as u32, progress)?;
+    // Upload and pipelines (preprocessing): the part of the GPU's wall time that is not
+    // the solve it reports.
+    let setup = gpu
+        .as_ref()
+        .map(|g| g.seconds_upload + g.seconds_pipelines)
+        .unwrap_or(0.0);
+    let backend = gpu.as_ref().map(|g| g.device.clone()).unwrap_or_else(|| "cpu".into());
     let st = &sol.stats;
     let level = scene.params.output_level();
     let values = probes

@@ -15,14 +15,14 @@ use serde::Serialize;
 use std::sync::Arc;
 
 use crate::gpu::backend::GpuReport;
-use crate::gpu::{list_devices, Context, ContextOptions, GpuBackend};
+use crate::gpu::{list_devices, Context, ContextOptions};
 use crate::hierarchy::{Hierarchy, HierarchyStats};
 use crate::limits::Limits;
 use crate::output::{self, image, ply, probe};
 use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
 use crate::scene::{LoadReport, Scene};
-use crate::transport::{self, cpu::CpuBackend, Solution, SolveStats};
+use crate::transport::{Solution, SolveStats};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -288,15 +288,6 @@ impl SceneSummary {
     }
 }
 
-/// A solve's results.
-pub struct Run {
-    pub hierarchy: Hierarchy,
-    pub solution: Solution,
-    pub gpu: Option<GpuReport>,
-    pub seconds_hierarchy: f64,
-    pub seconds_solve: f64,
-}
-
 /// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
 /// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
 /// backend is faster, so `auto` takes the CPU there, and says why on stderr.
@@ -333,33 +324,6 @@ pub fn gpu_context(choice: BackendChoice, device: Option<&str>, quiet: bool) -> 
             }
         },
     }
-}
-
-/// Hierarchy and transport for a loaded scene on the CPU (`ctx = None`) or a GPU.
-pub fn run_solver(scene: &Scene, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Run> {
-    let t = Instant::now();
-    let hierarchy = Hierarchy::build(scene, progress)?;
-    let seconds_hierarchy = t.elapsed().as_secs_f64();
-    let t = Instant::now();
-    let (solution, gpu) = match ctx {
-        Some(ctx) => {
-            progress.stage("uploading to the GPU");
-            let mut b = GpuBackend::new(ctx, scene, &hierarchy)?;
-            let s = transport::solve(scene, &mut b, progress)?;
-            (s, Some(b.report.clone()))
-        }
-        None => {
-            let mut b = CpuBackend::new(scene, &hierarchy, progress);
-            (transport::solve(scene, &mut b, progress)?, None)
-        }
-    };
-    Ok(Run {
-        hierarchy,
-        solution,
-        gpu,
-        seconds_hierarchy,
-        seconds_solve: t.elapsed().as_secs_f64(),
-    })
 }
 
 fn report_load(scene: &Scene, quiet: bool) {
@@ -452,7 +416,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     }
     output::check_outputs(&planned, &scene.report.inputs)?;
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = run_solver(&scene, ctx, &progress)?;
+    let run = crate::solve(&scene, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
@@ -520,7 +484,7 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
         output::check_outputs(&[("--out", p.clone())], &inputs)?;
     }
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = run_solver(&scene, ctx, &progress)?;
+    let run = crate::solve(&scene, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let values = probe::evaluate(
         &scene,

@@ -5,7 +5,6 @@ pub mod room;
 
 use std::path::{Path, PathBuf};
 
-use meshrad::cli::run_solver;
 use meshrad::progress::Progress;
 use meshrad::{Hierarchy, Scene, Solution};
 
@@ -28,7 +27,7 @@ pub fn load(path: &Path, overrides: &[(&str, &str)]) -> Scene {
 
 /// Hierarchy and CPU solution of a scene.
 pub fn solve_cpu(scene: &Scene) -> (Hierarchy, Solution) {
-    let r = run_solver(scene, None, &Progress::hidden()).expect("solve");
+    let r = meshrad::solve(scene, None, &Progress::hidden()).expect("solve");
     (r.hierarchy, r.solution)
 }
 

@@ -1,0 +1,71 @@
+//! The library's entry point: a loaded scene → its hierarchy → the bounce loop on the CPU
+//! or a Vulkan device. The CLI, the benchmarks and the tests all solve through here.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use crate::error::Result;
+use crate::gpu::backend::GpuReport;
+use crate::gpu::{Context, GpuBackend};
+use crate::hierarchy::Hierarchy;
+use crate::progress::Progress;
+use crate::scene::Scene;
+use crate::transport::{self, cpu::CpuBackend, Solution};
+
+/// A solve's results.
+pub struct Run {
+    pub hierarchy: Hierarchy,
+    pub solution: Solution,
+    /// What the GPU backend did (`None` on the CPU).
+    pub gpu: Option<GpuReport>,
+    pub seconds_hierarchy: f64,
+    pub seconds_solve: f64,
+}
+
+/// Builds the hierarchy of `scene` and solves it on the CPU (`ctx = None`) or on the
+/// device of `ctx`.
+pub fn solve(scene: &Scene, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Run> {
+    let t = Instant::now();
+    let hierarchy = Hierarchy::build(scene, progress)?;
+    let seconds_hierarchy = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let (solution, gpu) = transport_on(scene, &hierarchy, ctx, 0, progress)?;
+    Ok(Run {
+        hierarchy,
+        solution,
+        gpu,
+        seconds_hierarchy,
+        seconds_solve: t.elapsed().as_secs_f64(),
+    })
+}
+
+/// The bounce loop for a built hierarchy on the CPU (`ctx = None`) or a device, after
+/// `warmups` discarded solves on the same backend (lavapipe compiles pipelines at their
+/// first dispatch; benchmarks warm up).
+pub fn transport_on(
+    scene: &Scene,
+    h: &Hierarchy,
+    ctx: Option<Arc<Context>>,
+    warmups: u32,
+    progress: &Progress,
+) -> Result<(Solution, Option<GpuReport>)> {
+    let hidden = Progress::hidden();
+    match ctx {
+        Some(ctx) => {
+            progress.stage("uploading to the GPU");
+            let mut b = GpuBackend::new(ctx, scene, h)?;
+            for _ in 0..warmups {
+                transport::solve(scene, &mut b, &hidden)?;
+            }
+            let s = transport::solve(scene, &mut b, progress)?;
+            Ok((s, Some(b.report.clone())))
+        }
+        None => {
+            let mut b = CpuBackend::new(scene, h, progress);
+            for _ in 0..warmups {
+                transport::solve(scene, &mut b, &hidden)?;
+            }
+            Ok((transport::solve(scene, &mut b, progress)?, None))
+        }
+    }
+}
