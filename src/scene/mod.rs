@@ -600,15 +600,13 @@ impl Builder {
         Ok(())
     }
 
-    fn finish(
-        mut self,
-        path: &Path,
+    /// The GPU materials: each MTL material checked (albedo below 1, a texture's mean
+    /// albedo too), its texture loaded once however many materials use it.
+    fn resolve_materials(
+        &mut self,
         source: &Source,
-        lights: Vec<GpuLight>,
-        camera: Option<&config::CameraEntry>,
-        params: SolverParams,
-    ) -> Result<Scene> {
-        let srgb = texture::srgb_table();
+        srgb: &[f32; 256],
+    ) -> Result<(Vec<Material>, Vec<TextureInfo>, Vec<u32>)> {
         let mut textures = Vec::new();
         let mut texels = Vec::new();
         let mut texture_paths: Vec<PathBuf> = Vec::new();
@@ -653,7 +651,7 @@ impl Builder {
                                 pad: 0,
                             };
                             texels.extend(px);
-                            let mean = texture::mean(&texels, &info, &srgb) * Vec3::from(kd);
+                            let mean = texture::mean(&texels, &info, srgb) * Vec3::from(kd);
                             if mean.max_element() >= 1.0 {
                                 return Err(Error::Texture {
                                     path: source.display(t),
@@ -671,11 +669,11 @@ impl Builder {
             };
             materials.push(Material { kd, texture });
         }
-        let uvs = if textures.is_empty() {
-            Vec::new()
-        } else {
-            self.uvs.iter().map(|&uv| TriUv { uv }).collect()
-        };
+        Ok((materials, textures, texels))
+    }
+
+    /// World-space bounds of every object and the length of their diagonal.
+    fn world_bounds(&self, path: &Path) -> Result<(Vec3, Vec3, f32)> {
         let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
         for o in &self.objects {
             for t in &self.tris[o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize] {
@@ -694,6 +692,25 @@ impl Builder {
                 message: "the geometry's bounds are empty or not finite".into(),
             });
         }
+        Ok((lo, hi, scale))
+    }
+
+    fn finish(
+        mut self,
+        path: &Path,
+        source: &Source,
+        lights: Vec<GpuLight>,
+        camera: Option<&config::CameraEntry>,
+        params: SolverParams,
+    ) -> Result<Scene> {
+        let srgb = texture::srgb_table();
+        let (materials, textures, texels) = self.resolve_materials(source, &srgb)?;
+        let uvs = if textures.is_empty() {
+            Vec::new()
+        } else {
+            self.uvs.iter().map(|&uv| TriUv { uv }).collect()
+        };
+        let (lo, hi, scale) = self.world_bounds(path)?;
         let camera = match camera {
             Some(c) => Camera::from_entry(c, path)?,
             None => Camera::framing(lo, hi),

@@ -138,12 +138,34 @@ pub fn load(source: &Source, rel: &Path, limit: u64) -> Result<LoadedMesh> {
         inputs: inputs.into_inner(),
         ..Default::default()
     };
+    add_triangles(&models, &mut out);
+    if out.unassigned > 0 {
+        out.materials.push(MtlData {
+            name: "(default)".into(),
+            kd: DEFAULT_KD,
+            texture: None,
+            uv_offset: [0.0; 2],
+            uv_scale: [1.0; 2],
+            emissive: false,
+            origin: shown.clone(),
+            kd_line: None,
+            used_by: shown,
+        });
+    }
+    Ok(out)
+}
+
+/// Appends the triangles of tobj's models to `out` (with their corner uvs, mapped by the
+/// material's `map_Kd -o/-s`), dropping and counting degenerate triangles and exact
+/// duplicates; faces without a known material get the default one (index
+/// `out.materials.len()`, added by the caller).
+fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
     // Coincident copies of a triangle add nothing but doubled area and a traversal that
     // must test every copy; the first one stays.
     let mut seen = std::collections::HashSet::new();
     let default_material = out.materials.len() as u32;
     let mut any_uv = false;
-    for model in &models {
+    for model in models {
         let m = &model.mesh;
         let has_uv = !m.texcoords.is_empty() && m.texcoord_indices.len() == m.indices.len();
         any_uv |= has_uv;
@@ -195,20 +217,6 @@ pub fn load(source: &Source, rel: &Path, limit: u64) -> Result<LoadedMesh> {
     if !any_uv {
         out.uvs.clear();
     }
-    if out.unassigned > 0 {
-        out.materials.push(MtlData {
-            name: "(default)".into(),
-            kd: DEFAULT_KD,
-            texture: None,
-            uv_offset: [0.0; 2],
-            uv_scale: [1.0; 2],
-            emissive: false,
-            origin: shown.clone(),
-            kd_line: None,
-            used_by: shown,
-        });
-    }
-    Ok(out)
 }
 
 /// Parses `n` numbers that must be finite.
