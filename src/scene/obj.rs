@@ -33,6 +33,23 @@ pub struct MtlData {
     pub used_by: PathBuf,
 }
 
+impl MtlData {
+    /// A material of the default albedo, untextured, defined in `origin`.
+    fn grey(name: String, origin: PathBuf) -> MtlData {
+        MtlData {
+            name,
+            kd: DEFAULT_KD,
+            texture: None,
+            uv_offset: [0.0; 2],
+            uv_scale: [1.0; 2],
+            emissive: false,
+            origin,
+            kd_line: None,
+            used_by: PathBuf::new(),
+        }
+    }
+}
+
 /// One OBJ file's triangles; `Tri::material` indexes `materials`.
 #[derive(Clone, Debug, Default)]
 pub struct LoadedMesh {
@@ -141,15 +158,8 @@ pub fn load(source: &Source, rel: &Path, limit: u64) -> Result<LoadedMesh> {
     add_triangles(&models, &mut out);
     if out.unassigned > 0 {
         out.materials.push(MtlData {
-            name: "(default)".into(),
-            kd: DEFAULT_KD,
-            texture: None,
-            uv_offset: [0.0; 2],
-            uv_scale: [1.0; 2],
-            emissive: false,
-            origin: shown.clone(),
-            kd_line: None,
-            used_by: shown,
+            used_by: shown.clone(),
+            ..MtlData::grey("(default)".into(), shown)
         });
     }
     Ok(out)
@@ -371,17 +381,7 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
             if args.is_empty() {
                 return Err(err("`newmtl` needs a material name".into()));
             }
-            out.push(MtlData {
-                name: args.join(" "),
-                kd: DEFAULT_KD,
-                texture: None,
-                uv_offset: [0.0; 2],
-                uv_scale: [1.0; 2],
-                emissive: false,
-                origin: shown.into(),
-                kd_line: None,
-                used_by: PathBuf::new(),
-            });
+            out.push(MtlData::grey(args.join(" "), shown.into()));
             continue;
         }
         let is_colour = matches!(key, "Ka" | "Kd" | "Ks" | "Ke" | "Tf");
