@@ -412,7 +412,11 @@ fn fuzz_scene_mesh_material_and_points_parsers() {
         .and_then(|s| s.parse().ok())
         .unwrap_or(1);
     let mut rng = Rng(seed.wrapping_mul(0x9e37_79b9_7f4a_7c15) | 1);
-    let tmp = tempfile::tempdir().unwrap();
+    // In memory where the machine has a tmpfs: rewriting the case files on a disk file
+    // system waits for the disk at every truncation.
+    let tmp = tempfile::tempdir_in("/dev/shm")
+        .or_else(|_| tempfile::tempdir())
+        .unwrap();
     let dir = tmp.path().to_path_buf();
     // A texture for `map_Kd t.png`.
     image::RgbImage::from_pixel(2, 2, image::Rgb([100, 120, 140]))
