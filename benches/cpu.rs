@@ -8,11 +8,11 @@ use meshrad::transport::{self, cpu::CpuBackend, Backend};
 use meshrad::{Hierarchy, Scene, Variant};
 
 fn hierarchy(c: &mut Criterion) {
-    let scene = Scene::embedded_cornell(&[]).expect("embedded scene");
+    let (scene, params) = Scene::embedded_cornell(&[]).expect("embedded scene");
     let mut g = c.benchmark_group("hierarchy");
     g.sample_size(10);
     g.bench_function("cornell", |b| {
-        b.iter(|| Hierarchy::build(&scene, &Progress::hidden()).expect("build"))
+        b.iter(|| Hierarchy::build(&scene, &params, &Progress::hidden()).expect("build"))
     });
     g.finish();
 }
@@ -21,17 +21,17 @@ fn bounce(c: &mut Criterion) {
     let mut g = c.benchmark_group("bounce_cpu");
     g.sample_size(10);
     for v in Variant::ALL {
-        let mut scene = Scene::embedded_cornell(&[]).expect("embedded scene");
-        scene.params.variant = v;
-        let h = Hierarchy::build(&scene, &Progress::hidden()).expect("build");
-        let mut backend = CpuBackend::new(&scene, &h, &Progress::hidden());
+        let (scene, mut params) = Scene::embedded_cornell(&[]).expect("embedded scene");
+        params.variant = v;
+        let h = Hierarchy::build(&scene, &params, &Progress::hidden()).expect("build");
+        let mut backend = CpuBackend::new(&scene, &h, &params, &Progress::hidden());
         backend.direct().expect("direct");
         backend.init_unshot().expect("init");
         g.bench_function(format!("cornell/{}", v.name()), |b| {
             b.iter(|| {
                 // Re-seed the un-shot energy so every iteration is the first bounce.
                 backend.init_unshot().expect("init");
-                transport::bounce(&mut backend, &scene.params, 1).expect("bounce")
+                transport::bounce(&mut backend, &params, 1).expect("bounce")
             })
         });
     }

@@ -21,15 +21,15 @@ fn bounce(c: &mut Criterion) {
     let mut g = c.benchmark_group(format!("bounce_gpu ({})", ctx.info.name));
     g.sample_size(10);
     for v in Variant::ALL {
-        let mut scene = Scene::embedded_cornell(&[]).expect("embedded scene");
-        scene.params.variant = v;
-        let h = Hierarchy::build(&scene, &Progress::hidden()).expect("build");
-        let mut backend = GpuBackend::new(ctx.clone(), &scene, &h).expect("upload");
+        let (scene, mut params) = Scene::embedded_cornell(&[]).expect("embedded scene");
+        params.variant = v;
+        let h = Hierarchy::build(&scene, &params, &Progress::hidden()).expect("build");
+        let mut backend = GpuBackend::new(ctx.clone(), &scene, &h, &params).expect("upload");
         backend.direct().expect("direct");
         g.bench_function(format!("cornell/{}", v.name()), |b| {
             b.iter(|| {
                 backend.init_unshot().expect("init");
-                transport::bounce(&mut backend, &scene.params, 1).expect("bounce")
+                transport::bounce(&mut backend, &params, 1).expect("bounce")
             })
         });
     }

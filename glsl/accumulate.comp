@@ -3,6 +3,13 @@
 #version 460
 #include "layout.glsl"
 
+// Push constants: src/gpu/kernels/accumulate.rs `AccumulatePush`.
+layout(push_constant) uniform AccumulatePush {
+    GlobalsRef g;
+    uint first; // first node (global index) of the range
+    uint count; // nodes in the range
+} pc;
+
 layout(local_size_x = LINEAR_GROUP) in;
 
 void main() {

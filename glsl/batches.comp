@@ -1,14 +1,24 @@
 // Kernel `batches`: indirect dispatch arguments for the batches of a level whose active
-// count the device just computed (counters[pc.aux]): for batch b (pc.count batches of
-// pc.offset integrals), the ray kernels' grid at dispatch_args[6b .. 6b+3] and the
-// reduction's at [6b+3 .. 6b+6]; grids wider than pc.level workgroups fold into y.
+// count the device just computed (counters[pc.count_slot]): for batch b (pc.batches
+// batches of pc.batch_size integrals), the ray kernels' grid at
+// dispatch_args[DISPATCH_PER_BATCH b + DISPATCH_RAYS] and the reduction's at
+// [DISPATCH_PER_BATCH b + DISPATCH_REDUCE]; grids wider than pc.max_groups_x fold into y.
 #version 460
 #include "layout.glsl"
+
+// Push constants: src/gpu/kernels/batches.rs `BatchesPush`.
+layout(push_constant) uniform BatchesPush {
+    GlobalsRef g;
+    uint batches;      // batches the level could need (its size / batch_size, rounded up)
+    uint batch_size;   // integrals per batch
+    uint count_slot;   // the counter holding the level's active count
+    uint max_groups_x; // the device's largest x grid
+} pc;
 
 layout(local_size_x = LINEAR_GROUP) in;
 
 void grid(uint at, uint groups) {
-    uint x = min(groups, pc.level);
+    uint x = min(groups, pc.max_groups_x);
     uint y = x == 0u ? 0u : (groups + x - 1u) / x;
     pc.g.dispatch_args.v[at] = x;
     pc.g.dispatch_args.v[at + 1u] = y;
@@ -17,13 +27,13 @@ void grid(uint at, uint groups) {
 
 void main() {
     uint b = gl_GlobalInvocationID.x;
-    if (b >= pc.count) {
+    if (b >= pc.batches) {
         return;
     }
     GlobalsRef g = pc.g;
-    uint batch = pc.offset;
-    uint total = g.counters.v[pc.aux];
+    uint batch = pc.batch_size;
+    uint total = g.counters.v[pc.count_slot];
     uint n = total > b * batch ? min(total - b * batch, batch) : 0u;
-    grid(6u * b, (n * g.rays_per_integral + LINEAR_GROUP - 1u) / LINEAR_GROUP);
-    grid(6u * b + 3u, n);
+    grid(DISPATCH_PER_BATCH * b + DISPATCH_RAYS, (n * g.rays_per_integral + LINEAR_GROUP - 1u) / LINEAR_GROUP);
+    grid(DISPATCH_PER_BATCH * b + DISPATCH_REDUCE, n);
 }

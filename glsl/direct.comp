@@ -5,6 +5,13 @@
 #version 460
 #include "surface.glsl"
 
+// Push constants: src/gpu/kernels/direct.rs `DirectPush`.
+layout(push_constant) uniform DirectPush {
+    GlobalsRef g;
+    uint first; // first node (global index) of the range
+    uint count; // nodes in the range
+} pc;
+
 layout(local_size_x = LINEAR_GROUP) in;
 
 void main() {

@@ -1,9 +1,18 @@
 // Kernel `energy`: sums over the level-0 nodes first .. first+count, one workgroup, fixed
-// order. flag = 0: energy[0] = Σ mean(unshot), energy[1] = Σ mean(direct) (the stop
-// criterion); flag = 1: energy[4..7] = mean direct irradiance per channel (the oracle's
-// ε_abs scale). CPU twins: CpuBackend::{end_bounce, direct}.
+// order. mean_direct = 0: energy[ENERGY_UNSHOT] = Σ mean(unshot), energy[ENERGY_DIRECT] =
+// Σ mean(direct) (the stop criterion); mean_direct = 1: three slots from
+// energy[ENERGY_MEAN_DIRECT] = mean direct irradiance per channel (the oracle's ε_abs scale). CPU twins: CpuBackend::{end_bounce, direct}.
 #version 460
 #include "layout.glsl"
+
+// Push constants: src/gpu/kernels/energy.rs `EnergyPush`.
+layout(push_constant) uniform EnergyPush {
+    GlobalsRef g;
+    uint first;       // first level-0 node
+    uint count;       // level-0 nodes
+    uint mean_direct; // 1: mean direct per channel; 0: the stop criterion's sums
+    uint pad0;
+} pc;
 
 layout(local_size_x = ENERGY_GROUP) in;
 
@@ -16,7 +25,7 @@ void main() {
     for (uint k = t; k < pc.count; k += ENERGY_GROUP) {
         uint j = pc.first + k;
         vec3 d = g.direct.v[j].xyz;
-        if (pc.flag == 1u) {
+        if (pc.mean_direct == 1u) {
             acc += vec4(d, 0.0);
         } else {
             vec3 u = g.unshot.v[j].xyz;
@@ -33,14 +42,14 @@ void main() {
     }
     if (t == 0u) {
         vec4 a = s_acc[0];
-        if (pc.flag == 1u) {
+        if (pc.mean_direct == 1u) {
             float n = float(max(pc.count, 1u));
-            g.energy.v[4] = a.x / n;
-            g.energy.v[5] = a.y / n;
-            g.energy.v[6] = a.z / n;
+            g.energy.v[ENERGY_MEAN_DIRECT] = a.x / n;
+            g.energy.v[ENERGY_MEAN_DIRECT + 1u] = a.y / n;
+            g.energy.v[ENERGY_MEAN_DIRECT + 2u] = a.z / n;
         } else {
-            g.energy.v[0] = a.x;
-            g.energy.v[1] = a.y;
+            g.energy.v[ENERGY_UNSHOT] = a.x;
+            g.energy.v[ENERGY_DIRECT] = a.y;
         }
     }
 }

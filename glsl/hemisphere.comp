@@ -1,11 +1,12 @@
 // Kernel `hemisphere`: the gathering rays of one batch of integrals (paper §4.2): Halton
 // points mapped to the cosine-weighted hemisphere of the node, rotated about its normal
-// by the integral's random angle. Integral i of the batch is node `active[offset + i]`
-// (flag = 1) or `first + offset + i` (flag = 0, a whole level).
+// by the integral's random angle. Integral i of the batch is node `integral_node(i)`
+// (gather.glsl).
 // CPU twin: transport::cpu::gather_integral.
 #version 460
 #include "geometry.glsl"
 #include "sampling.glsl"
+#include "gather.glsl"
 
 layout(local_size_x = LINEAR_GROUP) in;
 
@@ -18,7 +19,7 @@ void main() {
     }
     uint i = id / n_rays;
     uint r = id - i * n_rays;
-    uint j = pc.flag == 1u ? g.active_list.v[pc.offset + i] : pc.first + pc.offset + i;
+    uint j = integral_node(g, i);
     Node nd = g.nodes.v[j];
     ObjectInfo ob = g.objects.v[nd.object];
     vec3 x = xform_point(ob.to_world, nd.pos);

@@ -1,11 +1,20 @@
 // Kernel `oracle`: new values of level l's nodes and the refinement decision
 // (ALGORITHM.md §5): a gathered node is refined when |g − pred| exceeds
 // max(ε_rel |g|, ε_abs mean E_d) + z σ in any channel. Inactive nodes take the prediction
-// (modified) or a zero delta (original). With flag = 1 the children of refined nodes are
-// marked for compaction. counters[2l] counts refined nodes.
+// (modified) or a zero delta (original). With activate = 1 the children of refined nodes are
+// marked for compaction. counters[COUNTERS_PER_LEVEL l + COUNTER_REFINED] counts refined nodes.
 // CPU twins: transport::cpu::oracle and CpuBackend::refine.
 #version 460
 #include "layout.glsl"
+
+// Push constants: src/gpu/kernels/oracle.rs `OraclePush`.
+layout(push_constant) uniform OraclePush {
+    GlobalsRef g;
+    uint first; // first node (global index) of the range
+    uint count; // nodes in the range
+    uint level;    // the level of the range
+    uint activate; // 1: mark the children of refined nodes for compaction
+} pc;
 
 layout(local_size_x = LINEAR_GROUP) in;
 
@@ -30,11 +39,11 @@ void main() {
     }
     g.next.v[j] = vec4(delta ? m - pred : m, 0.0);
     vec3 err = g.gathered_err.v[j].xyz;
-    vec3 mean_direct = vec3(g.energy.v[4], g.energy.v[5], g.energy.v[6]);
+    vec3 mean_direct = vec3(g.energy.v[ENERGY_MEAN_DIRECT], g.energy.v[ENERGY_MEAN_DIRECT + 1u], g.energy.v[ENERGY_MEAN_DIRECT + 2u]);
     vec3 tau = max(abs(m) * g.eps_rel, mean_direct * g.eps_abs) + err * g.noise_z;
     if (any(greaterThan(abs(m - pred), tau))) {
-        atomicAdd(g.counters.v[2u * pc.level], 1u);
-        if (pc.flag == 1u) {
+        atomicAdd(g.counters.v[COUNTERS_PER_LEVEL * pc.level + COUNTER_REFINED], 1u);
+        if (pc.activate == 1u) {
             uint a = g.child_offset.v[j];
             uint b = g.child_offset.v[j + 1u];
             for (uint k = a; k < b; k++) {

@@ -1,8 +1,17 @@
 // Kernel `pulldown`: v_c = Σ_p B_p(x_c) v_p over the parents of nodes first .. first+count
-// (paper §5, Fig. 4), from `next`, into `pred` (flag = 0: the oracle's prediction) or into
-// `next` (flag = 1: filling a level without integrals). CPU twin: transport::cpu::pull_down.
+// (paper §5, Fig. 4), from `next`, into `pred` (fill = 0: the oracle's prediction) or into
+// `next` (fill = 1: filling a level without integrals). CPU twin: transport::cpu::pull_down.
 #version 460
 #include "layout.glsl"
+
+// Push constants: src/gpu/kernels/pulldown.rs `PulldownPush`.
+layout(push_constant) uniform PulldownPush {
+    GlobalsRef g;
+    uint first; // first node (global index) of the range
+    uint count; // nodes in the range
+    uint fill; // 1: into next (a level without integrals); 0: into pred (the prediction)
+    uint pad0;
+} pc;
 
 layout(local_size_x = LINEAR_GROUP) in;
 
@@ -22,7 +31,7 @@ void main() {
         Parent p = parents.v[k];
         v += next.v[p.node] * p.weight;
     }
-    if (pc.flag == 1u) {
+    if (pc.fill == 1u) {
         next.v[c] = v;
     } else {
         g.pred.v[c] = v;

@@ -5,6 +5,7 @@
 #version 460
 #include "surface.glsl"
 #include "hierarchy.glsl"
+#include "gather.glsl"
 
 layout(local_size_x = LINEAR_GROUP) in;
 

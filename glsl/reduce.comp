@@ -6,6 +6,7 @@
 // cancel in float32. CPU twin: the tail of transport::cpu::gather_integral.
 #version 460
 #include "layout.glsl"
+#include "gather.glsl"
 
 layout(local_size_x = GATHER_GROUP) in;
 
@@ -50,7 +51,7 @@ void main() {
         float nf = float(n_rays);
         vec3 m = s_sum[0] / nf;
         vec3 var = n_rays > 1u ? max((s_sq[0] / nf - m * m) * (nf / (nf - 1.0)), vec3(0.0)) : vec3(0.0);
-        uint j = pc.flag == 1u ? g.active_list.v[pc.offset + i] : pc.first + pc.offset + i;
+        uint j = integral_node(g, i);
         g.gathered_mean.v[j] = vec4(m + shift, 0.0);
         g.gathered_err.v[j] = vec4(sqrt(var / nf), 0.0);
         g.active_flag.v[j] = 1u;

@@ -2,6 +2,7 @@
 // object's space; one BVH2 per object). CPU twin: Scene::intersect.
 #version 460
 #include "geometry.glsl"
+#include "gather.glsl"
 
 layout(local_size_x = LINEAR_GROUP) in;
 

@@ -28,9 +28,30 @@ pub const BVH_BVH2: u32 = 0;
 pub const BVH_CWBVH: u32 = 1;
 /// Clip-plane distances are stored as `d / CLIP_SCALE · h` (see hierarchy::weight).
 pub const CLIP_SCALE: u32 = 50000;
-/// Counter slots: refined nodes of level l at `2l`, nodes it activates at `2l + 1`;
-/// nodes lit per light i at `LIGHT_COUNTERS + i`.
+/// The `counters` buffer (u32 slots): per level l, `COUNTERS_PER_LEVEL` slots from
+/// `COUNTERS_PER_LEVEL · l`: the nodes of level l the oracle refined
+/// (`+ COUNTER_REFINED`) and the nodes of level l + 1 they activated, the next level's
+/// active count (`+ COUNTER_ACTIVATED`); then the nodes lit per light i at
+/// `LIGHT_COUNTERS + i` (LIGHT_COUNTERS ≥ COUNTERS_PER_LEVEL · MAX_LEVELS).
+pub const COUNTERS_PER_LEVEL: u32 = 2;
+pub const COUNTER_REFINED: u32 = 0;
+pub const COUNTER_ACTIVATED: u32 = 1;
 pub const LIGHT_COUNTERS: u32 = 32;
+/// The `energy` buffer (f32 slots): the level-0 sums of mean(un-shot) and mean(direct)
+/// (the stop criterion), and from `ENERGY_MEAN_DIRECT` three slots of mean direct
+/// irradiance per channel (the oracle's ε_abs scale); `ENERGY_SLOTS` in all.
+pub const ENERGY_UNSHOT: u32 = 0;
+pub const ENERGY_DIRECT: u32 = 1;
+pub const ENERGY_MEAN_DIRECT: u32 = 4;
+pub const ENERGY_SLOTS: u32 = 8;
+/// The `dispatch_args` buffer (u32 slots): per batch b of a device-sized level,
+/// `DISPATCH_PER_BATCH` words from `DISPATCH_PER_BATCH · b`: the ray kernels' grid at
+/// `+ DISPATCH_RAYS` and the reduction's at `+ DISPATCH_REDUCE`, each a
+/// VkDispatchIndirectCommand of `DISPATCH_WORDS` words (x, y, z).
+pub const DISPATCH_WORDS: u32 = 3;
+pub const DISPATCH_RAYS: u32 = 0;
+pub const DISPATCH_REDUCE: u32 = 3;
+pub const DISPATCH_PER_BATCH: u32 = 6;
 /// Threads of the one workgroup of the `energy` kernel (a power of two).
 pub const ENERGY_GROUP: u32 = 256;
 /// Stack entries of the GPU's CWBVH traversal; the CWBVH builder keeps within it.

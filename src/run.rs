@@ -8,6 +8,7 @@ use crate::error::Result;
 use crate::gpu::backend::GpuReport;
 use crate::gpu::{Context, GpuBackend};
 use crate::hierarchy::Hierarchy;
+use crate::params::SolverParams;
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::transport::{self, cpu::CpuBackend, Solution};
@@ -22,14 +23,16 @@ pub struct Run {
     pub seconds_solve: f64,
 }
 
-/// Builds the hierarchy of `scene` and solves it on the CPU (`ctx = None`) or on the
-/// device of `ctx`.
-pub fn solve(scene: &Scene, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Run> {
+/// Builds the hierarchy of `scene` for `params` and solves it on the CPU (`ctx = None`) or
+/// on the device of `ctx`. The parameters are checked here (a library caller may build
+/// them by hand; `Scene::load` has checked a file's already).
+pub fn solve(scene: &Scene, params: &SolverParams, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Run> {
+    params.validate()?;
     let t = Instant::now();
-    let hierarchy = Hierarchy::build(scene, progress)?;
+    let hierarchy = Hierarchy::build(scene, params, progress)?;
     let seconds_hierarchy = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let (solution, gpu) = transport_on(scene, &hierarchy, ctx, 0, progress)?;
+    let (solution, gpu) = transport_on(scene, params, &hierarchy, ctx, 0, progress)?;
     Ok(Run {
         hierarchy,
         solution,
@@ -44,6 +47,7 @@ pub fn solve(scene: &Scene, ctx: Option<Arc<Context>>, progress: &Progress) -> R
 /// first dispatch; benchmarks warm up).
 pub fn transport_on(
     scene: &Scene,
+    params: &SolverParams,
     h: &Hierarchy,
     ctx: Option<Arc<Context>>,
     warmups: u32,
@@ -53,19 +57,19 @@ pub fn transport_on(
     match ctx {
         Some(ctx) => {
             progress.stage("uploading to the GPU");
-            let mut b = GpuBackend::new(ctx, scene, h)?;
+            let mut b = GpuBackend::new(ctx, scene, h, params)?;
             for _ in 0..warmups {
-                transport::solve(scene, &mut b, &hidden)?;
+                transport::solve(params, &mut b, &hidden)?;
             }
-            let s = transport::solve(scene, &mut b, progress)?;
+            let s = transport::solve(params, &mut b, progress)?;
             Ok((s, Some(b.report.clone())))
         }
         None => {
-            let mut b = CpuBackend::new(scene, h, progress);
+            let mut b = CpuBackend::new(scene, h, params, progress);
             for _ in 0..warmups {
-                transport::solve(scene, &mut b, &hidden)?;
+                transport::solve(params, &mut b, &hidden)?;
             }
-            Ok((transport::solve(scene, &mut b, progress)?, None))
+            Ok((transport::solve(params, &mut b, progress)?, None))
         }
     }
 }

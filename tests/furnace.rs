@@ -36,7 +36,7 @@ fn run(variant: Variant, light: [f64; 3], gpu: bool) -> Errors {
         variant.name()
     );
     let path = furnace(dir.path(), R, 4, RHO, light, I, &solver).unwrap();
-    let scene = common::load(&path, &[]);
+    let (scene, params) = common::load(&path, &[]);
     let (h, sol) = if gpu {
         let ctx = std::sync::Arc::new(
             meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
@@ -45,14 +45,20 @@ fn run(variant: Variant, light: [f64; 3], gpu: bool) -> Errors {
             })
             .expect("a Vulkan device (lavapipe in CI)"),
         );
-        let r = meshrad::solve(&scene, Some(ctx.clone()), &meshrad::progress::Progress::hidden()).unwrap();
+        let r = meshrad::solve(
+            &scene,
+            &params,
+            Some(ctx.clone()),
+            &meshrad::progress::Progress::hidden(),
+        )
+        .unwrap();
         assert_eq!(ctx.validation_errors(), 0);
         (r.hierarchy, r.solution)
     } else {
-        common::solve_cpu(&scene)
+        common::solve_cpu(&scene, &params)
     };
     let (ed, eind, _) = furnace_expected(R, RHO, I, K);
-    let out = scene.params.output_level();
+    let out = params.output_level();
     let mut e = Errors {
         direct_max: 0.0,
         indirect_mean: 0.0,

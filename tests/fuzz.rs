@@ -373,11 +373,11 @@ fn run_case(dir: &Path, c: &Case) -> Outcome {
             (k.clone(), value)
         })
         .collect();
-    let Ok(mut scene) = Scene::load_with(&dir.join("s.toml"), &overrides, &limits) else {
+    let Ok((scene, mut params)) = Scene::load_with(&dir.join("s.toml"), &overrides, &limits) else {
         return Outcome::Refused;
     };
     // The solve at sizes a fuzz case can afford, on whatever geometry and lights loaded.
-    let p = &mut scene.params;
+    let p = &mut params;
     p.levels = p.levels.min(3);
     p.sender_level = p.sender_level.min(p.levels - 1);
     p.gather_levels = p.gather_levels.map(|g| g.min(p.levels));
@@ -387,7 +387,7 @@ fn run_case(dir: &Path, c: &Case) -> Outcome {
     p.bounces = p.bounces.min(2);
     p.reach_paths = p.reach_paths.min(4096);
     p.candidate_factor = p.candidate_factor.min(8.0);
-    if meshrad::solve(&scene, None, &Progress::hidden()).is_ok() {
+    if meshrad::solve(&scene, &params, None, &Progress::hidden()).is_ok() {
         Outcome::Loaded
     } else {
         Outcome::Refused

@@ -15,7 +15,7 @@ use meshrad::hierarchy::Hierarchy;
 use meshrad::progress::Progress;
 use meshrad::transport::cpu::{gather_integral, node_world, CpuBackend};
 use meshrad::transport::{reconstruct::Sender, Backend};
-use meshrad::{Scene, Variant};
+use meshrad::{Scene, SolverParams, Variant};
 
 fn context() -> Arc<Context> {
     let ctx = Context::new(&ContextOptions {
@@ -30,13 +30,13 @@ fn context() -> Arc<Context> {
     Arc::new(ctx)
 }
 
-fn cornell(levels: u32, rays: u32, variant: Variant) -> Scene {
-    let mut s = Scene::embedded_cornell(&[]).unwrap();
-    s.params.levels = levels;
-    s.params.sender_level = levels - 1;
-    s.params.rays = rays;
-    s.params.variant = variant;
-    s
+fn cornell(levels: u32, rays: u32, variant: Variant) -> (Scene, SolverParams) {
+    let (s, mut p) = Scene::embedded_cornell(&[]).unwrap();
+    p.levels = levels;
+    p.sender_level = levels - 1;
+    p.rays = rays;
+    p.variant = variant;
+    (s, p)
 }
 
 /// `|a − b| ≤ rel · max(|b|, floor)` per channel.
@@ -53,11 +53,11 @@ fn devices_are_listed() {
 
 #[test]
 fn kernel_direct_matches_cpu() {
-    let s = cornell(4, 16, Variant::Modified);
-    let h = Hierarchy::build(&s, &Progress::hidden()).unwrap();
+    let (s, p) = cornell(4, 16, Variant::Modified);
+    let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
     let ctx = context();
-    let mut g = GpuBackend::new(ctx.clone(), &s, &h).unwrap();
-    let mut c = CpuBackend::new(&s, &h, &Progress::hidden());
+    let mut g = GpuBackend::new(ctx.clone(), &s, &h, &p).unwrap();
+    let mut c = CpuBackend::new(&s, &h, &p, &Progress::hidden());
     assert_eq!(g.direct().unwrap(), c.direct().unwrap(), "nodes lit per light");
     let gd = g.read_state(State::Direct).unwrap();
     let cd = c.state().0;
@@ -74,15 +74,16 @@ fn kernel_direct_matches_cpu() {
 }
 
 /// hemisphere, trace, reconstruct and reduce on one whole level, ray by ray.
+/// Long by design: the four kernels checked in the order they run, on one set-up.
 #[test]
 fn kernels_of_a_gather_match_cpu() {
     for variant in Variant::ALL {
         let rays = 32;
-        let s = cornell(4, rays, variant);
-        let h = Hierarchy::build(&s, &Progress::hidden()).unwrap();
+        let (s, p) = cornell(4, rays, variant);
+        let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
         let ctx = context();
-        let mut g = GpuBackend::new(ctx.clone(), &s, &h).unwrap();
-        let mut c = CpuBackend::new(&s, &h, &Progress::hidden());
+        let mut g = GpuBackend::new(ctx.clone(), &s, &h, &p).unwrap();
+        let mut c = CpuBackend::new(&s, &h, &p, &Progress::hidden());
         for b in [&mut g as &mut dyn Backend, &mut c] {
             b.direct().unwrap();
             b.init_unshot().unwrap();
@@ -104,13 +105,13 @@ fn kernels_of_a_gather_match_cpu() {
         assert_eq!(g.gather(level as u32).unwrap() as usize, n);
         let (gr, gh, gs) = g.read_batch(n * rays as usize).unwrap();
         let halton = halton_table(rays);
-        let sender = Sender::of(&s.params);
+        let sender = Sender::of(&p);
         let (mut same_hit, mut total) = (0, 0);
         for (i, j) in h.level_range(level).enumerate() {
             let (x, nrm) = node_world(&s, &h, j);
             let o = s.offset(x, nrm);
             let (t, b) = onb(nrm);
-            let phi = integral_rotation(s.params.seed, j as u32);
+            let phi = integral_rotation(p.seed, j as u32);
             for (r, &u) in halton.iter().enumerate() {
                 let k = i * rays as usize + r;
                 let d = cosine_direction(nrm, t, b, u, phi);
@@ -149,7 +150,7 @@ fn kernels_of_a_gather_match_cpu() {
         let gm = g.read_state(State::GatheredMean).unwrap();
         let ge = g.read_state(State::GatheredErr).unwrap();
         for j in h.level_range(level) {
-            let want = gather_integral(&s, &h, &s.params, &halton, &unshot_cpu, j);
+            let want = gather_integral(&s, &h, &p, &halton, &unshot_cpu, j);
             let scale = want.mean.max_element().max(1e-4);
             assert!(
                 close(gm[j].xyz(), want.mean, 1e-2, scale),
@@ -172,11 +173,11 @@ fn kernels_of_a_gather_match_cpu() {
 #[test]
 fn kernels_of_the_refinement_match_cpu() {
     for variant in Variant::ALL {
-        let s = cornell(4, 32, variant);
-        let h = Hierarchy::build(&s, &Progress::hidden()).unwrap();
+        let (s, p) = cornell(4, 32, variant);
+        let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
         let ctx = context();
-        let mut g = GpuBackend::new(ctx.clone(), &s, &h).unwrap();
-        let mut c = CpuBackend::new(&s, &h, &Progress::hidden());
+        let mut g = GpuBackend::new(ctx.clone(), &s, &h, &p).unwrap();
+        let mut c = CpuBackend::new(&s, &h, &p, &Progress::hidden());
         for b in [&mut g as &mut dyn Backend, &mut c] {
             b.direct().unwrap();
             b.init_unshot().unwrap();
@@ -234,11 +235,11 @@ fn kernels_of_the_refinement_match_cpu() {
 #[test]
 fn whole_solves_match_cpu() {
     for variant in Variant::ALL {
-        let mut s = cornell(5, 64, variant);
-        s.params.bounces = 3;
+        let (s, mut p) = cornell(5, 64, variant);
+        p.bounces = 3;
         let ctx = context();
-        let g = meshrad::solve(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let c = meshrad::solve(&s, None, &Progress::hidden()).unwrap();
+        let g = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let c = meshrad::solve(&s, &p, None, &Progress::hidden()).unwrap();
         assert_eq!(g.solution.stats.integrals, c.solution.stats.integrals, "{variant:?}");
         for (bg, bc) in g.solution.stats.bounces.iter().zip(&c.solution.stats.bounces) {
             assert_eq!(bg.integrals_per_level, bc.integrals_per_level, "{variant:?}");
@@ -277,10 +278,10 @@ fn whole_solves_match_cpu() {
 
 #[test]
 fn gpu_solves_are_deterministic() {
-    let s = cornell(4, 32, Variant::Approx);
+    let (s, p) = cornell(4, 32, Variant::Approx);
     let ctx = context();
-    let a = meshrad::solve(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
-    let b = meshrad::solve(&s, Some(ctx), &Progress::hidden()).unwrap();
+    let a = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let b = meshrad::solve(&s, &p, Some(ctx), &Progress::hidden()).unwrap();
     assert!(a.solution.values.indirect == b.solution.values.indirect);
     let _ = Vec4::ZERO;
 }
@@ -298,11 +299,11 @@ fn geometry_over_128_mib_solves() {
         .unwrap()
         .replace("mesh = \"sphere.obj\"", "mesh = \"sphere.obj\"\ntessellate = 4");
     std::fs::write(&path, text).unwrap();
-    let s = common::load(&path, &[]);
+    let (s, p) = common::load(&path, &[]);
     let bytes = s.tris.len() * std::mem::size_of::<meshrad::layout::Tri>();
     assert!(bytes > 128 << 20, "only {bytes} bytes of triangles");
     let ctx = context();
-    let r = meshrad::solve(&s, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let r = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
     let (_, eind, _) = meshrad::analytic::furnace_expected(1.0, 0.5, 1.0, 1);
     let h = &r.hierarchy;
     let l = h.level_range(1);
@@ -329,7 +330,7 @@ fn cwbvh_matches_bvh2() {
     )
     .unwrap();
     let small = [("levels", "4"), ("sender_level", "3"), ("rays", "32")];
-    let load = |which: usize, bvh: &str| -> Scene {
+    let load = |which: usize, bvh: &str| -> (Scene, SolverParams) {
         let b = format!("\"{bvh}\"");
         if which == 0 {
             let mut o: Vec<(String, toml::Value)> = small
@@ -343,10 +344,14 @@ fn cwbvh_matches_bvh2() {
         }
     };
     for which in 0..2 {
-        let (a, b) = (load(which, "bvh2"), load(which, "cwbvh"));
-        assert!(a.cw_nodes.is_empty() && !b.cw_nodes.is_empty());
-        let ra = meshrad::solve(&a, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let rb = meshrad::solve(&b, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let ((a, pa), (b, pb)) = (load(which, "bvh2"), load(which, "cwbvh"));
+        let ra = meshrad::solve(&a, &pa, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let rb = meshrad::solve(&b, &pb, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let nodes = |r: &meshrad::Run| r.gpu.as_ref().unwrap().cwbvh_nodes;
+        assert!(
+            nodes(&ra) == 0 && nodes(&rb) > 0,
+            "the CWBVH is built when asked, only then"
+        );
         assert_eq!(ra.solution.stats.integrals, rb.solution.stats.integrals);
         let (x, y) = (&ra.solution.values.indirect, &rb.solution.values.indirect);
         let (mut e2, mut r2) = (0.0f64, 0.0f64);

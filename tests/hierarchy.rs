@@ -9,20 +9,19 @@ use meshrad::hierarchy::{poisson, Hierarchy};
 use meshrad::progress::Progress;
 use meshrad::scene::reach;
 use meshrad::transport::reconstruct;
-use meshrad::Scene;
+use meshrad::{Scene, SolverParams};
 
-fn cornell(levels: u32) -> Scene {
-    let mut s = Scene::embedded_cornell(&[]).unwrap();
-    s.params.levels = levels;
-    s.params.sender_level = levels - 1;
-    s.params.gather_levels = Some(levels.min(3));
-    s
+fn cornell(levels: u32) -> (Scene, SolverParams) {
+    let (s, mut p) = Scene::embedded_cornell(&[]).unwrap();
+    p.levels = levels;
+    p.sender_level = levels - 1;
+    p.gather_levels = Some(levels.min(3));
+    (s, p)
 }
 
 /// Random points on the sides light reaches, out of crevices (the definitions the build
 /// uses).
-fn surface_points(scene: &Scene, h: &Hierarchy, n: usize) -> Vec<(Vec3, Vec3)> {
-    let p = &scene.params;
+fn surface_points(scene: &Scene, p: &SolverParams, h: &Hierarchy, n: usize) -> Vec<(Vec3, Vec3)> {
     let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
     let d_min = p.crevice_distance * h.stats.radius_per_level.last().unwrap();
     poisson::candidates(&scene.tris, &sides, n, 12345)
@@ -35,8 +34,8 @@ fn surface_points(scene: &Scene, h: &Hierarchy, n: usize) -> Vec<(Vec3, Vec3)> {
 
 #[test]
 fn poisson_distance_on_every_level() {
-    let scene = cornell(5);
-    let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    let (scene, params) = cornell(5);
+    let h = Hierarchy::build(&scene, &params, &Progress::hidden()).unwrap();
     for l in 0..5 {
         let (nodes, _, _) = h.level(0, l);
         let r = h.objects[0].radius[l];
@@ -62,7 +61,7 @@ fn poisson_distance_on_every_level() {
 
 #[test]
 fn dart_throwing_is_maximal() {
-    let scene = cornell(3);
+    let (scene, _) = cornell(3);
     let sides = vec![true; scene.tris.len() * 2];
     let pool = poisson::candidates(&scene.tris, &sides, 20_000, 5);
     let r = 20.0;
@@ -80,7 +79,7 @@ fn dart_throwing_is_maximal() {
 /// in the same order, whatever `usable` rejects, over many chunks.
 #[test]
 fn parallel_dart_throwing_equals_sequential() {
-    let scene = cornell(3);
+    let (scene, _) = cornell(3);
     let sides = vec![true; scene.tris.len() * 2];
     let pool = poisson::candidates(&scene.tris, &sides, 60_000, 9);
     let usable = |i: usize| (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 61 != 0; // drops 1 in 8
@@ -95,10 +94,10 @@ fn parallel_dart_throwing_equals_sequential() {
 
 #[test]
 fn partition_of_unity_and_constants() {
-    let scene = cornell(5);
-    let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    let (scene, params) = cornell(5);
+    let h = Hierarchy::build(&scene, &params, &Progress::hidden()).unwrap();
     let constant = vec![Vec4::new(2.5, 2.5, 2.5, 0.0); h.nodes.len()];
-    let pts = surface_points(&scene, &h, 2000);
+    let pts = surface_points(&scene, &params, &h, 2000);
     assert!(pts.len() > 1800, "most points are out of crevices");
     for l in 0..5 {
         let mut holes = 0;
@@ -124,8 +123,8 @@ fn partition_of_unity_and_constants() {
 
 #[test]
 fn parent_weights_sum_to_one() {
-    let scene = cornell(5);
-    let h = Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    let (scene, params) = cornell(5);
+    let h = Hierarchy::build(&scene, &params, &Progress::hidden()).unwrap();
     let mut checked = 0;
     for c in h.level_start[1] as usize..h.nodes.len() {
         let ps = h.parents_of(c);
@@ -145,13 +144,13 @@ fn parent_weights_sum_to_one() {
 #[test]
 fn same_seed_same_everything() {
     let a = {
-        let s = cornell(4);
-        let (h, sol) = common::solve_cpu(&s);
+        let (s, p) = cornell(4);
+        let (h, sol) = common::solve_cpu(&s, &p);
         (h.nodes, sol.values.direct, sol.values.indirect)
     };
     let b = {
-        let s = cornell(4);
-        let (h, sol) = common::solve_cpu(&s);
+        let (s, p) = cornell(4);
+        let (h, sol) = common::solve_cpu(&s, &p);
         (h.nodes, sol.values.direct, sol.values.indirect)
     };
     assert!(a.0 == b.0, "nodes differ between two runs with the same seed");
@@ -160,9 +159,9 @@ fn same_seed_same_everything() {
         "values differ between two runs with the same seed"
     );
     let c = {
-        let mut s = cornell(4);
-        s.params.seed = 1;
-        Hierarchy::build(&s, &Progress::hidden()).unwrap().nodes
+        let (s, mut p) = cornell(4);
+        p.seed = 1;
+        Hierarchy::build(&s, &p, &Progress::hidden()).unwrap().nodes
     };
     assert!(a.0 != c, "another seed gives other nodes");
 }

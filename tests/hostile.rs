@@ -536,6 +536,7 @@ fn snapshot(dir: &Path) -> Vec<(String, Vec<u8>)> {
     v
 }
 
+/// Long by design: one case per way an output could land on an input or on another output.
 #[test]
 fn outputs_never_overwrite_inputs_or_each_other() {
     let d = Dir::default_scene();

@@ -9,7 +9,11 @@ use std::mem::offset_of;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use meshrad::gpu::globals::{Globals, Push};
+use meshrad::gpu::globals::Globals;
+use meshrad::gpu::kernels::{
+    accumulate::AccumulatePush, batches::BatchesPush, compact::CompactPush, delta::DeltaPush, direct::DirectPush,
+    energy::EnergyPush, gather::GatherPush, oracle::OraclePush, pulldown::PulldownPush,
+};
 use meshrad::layout::*;
 
 /// (struct, member) → offset, from one SPIR-V module.
@@ -95,6 +99,7 @@ fn glsl_layouts() -> BTreeMap<(String, String), u32> {
     all.into_iter().map(|(k, (o, _))| (k, o)).collect()
 }
 
+/// Long by design: one line per shared struct, listing its members.
 #[test]
 fn gpu_struct_offsets_match_the_host_structs() {
     let glsl = glsl_layouts();
@@ -203,7 +208,62 @@ fn gpu_struct_offsets_match_the_host_structs() {
         sender_level,
         pad0
     );
-    check("PushBlock", "g", offset_of!(Push, globals));
-    same!(Push, "PushBlock", first, count, offset, level, flag, aux, count_at, pad);
+    // Each kernel's push constants (one block per kernel; the four kernels of a gathering
+    // batch share GatherPush).
+    check("DirectPush", "g", offset_of!(DirectPush, globals));
+    same!(DirectPush, "DirectPush", first, count);
+    check("AccumulatePush", "g", offset_of!(AccumulatePush, globals));
+    same!(AccumulatePush, "AccumulatePush", first, count);
+    check("PulldownPush", "g", offset_of!(PulldownPush, globals));
+    same!(PulldownPush, "PulldownPush", first, count, fill, pad0);
+    check("DeltaPush", "g", offset_of!(DeltaPush, globals));
+    same!(DeltaPush, "DeltaPush", first, count, level, init);
+    check("OraclePush", "g", offset_of!(OraclePush, globals));
+    same!(OraclePush, "OraclePush", first, count, level, activate);
+    check("CompactPush", "g", offset_of!(CompactPush, globals));
+    same!(CompactPush, "CompactPush", first, count, parent_level, pad0);
+    check("EnergyPush", "g", offset_of!(EnergyPush, globals));
+    same!(EnergyPush, "EnergyPush", first, count, mean_direct, pad0);
+    check("BatchesPush", "g", offset_of!(BatchesPush, globals));
+    same!(
+        BatchesPush,
+        "BatchesPush",
+        batches,
+        batch_size,
+        count_slot,
+        max_groups_x
+    );
+    check("GatherPush", "g", offset_of!(GatherPush, globals));
+    same!(
+        GatherPush,
+        "GatherPush",
+        first,
+        count,
+        batch_first,
+        from_list,
+        count_slot,
+        pad0
+    );
     println!("LAYOUT {checked} members checked against the SPIR-V of every kernel");
+}
+
+/// Every kernel has its wrapper beside it: `glsl/<name>.comp` ↔ `src/gpu/kernels/<name>.rs`.
+#[test]
+fn every_kernel_has_its_wrapper() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let mut n = 0;
+    for e in std::fs::read_dir(root.join("glsl")).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|e| e == "comp") {
+            let name = p.file_stem().unwrap().to_string_lossy().into_owned();
+            let rs = root.join("src/gpu/kernels").join(format!("{name}.rs"));
+            assert!(rs.is_file(), "{} has no wrapper {}", p.display(), rs.display());
+            assert!(
+                meshrad::gpu::kernels::NAMES.contains(&name.as_str()),
+                "{name} is not in meshrad::gpu::kernels::NAMES"
+            );
+            n += 1;
+        }
+    }
+    assert_eq!(n, meshrad::gpu::kernels::NAMES.len());
 }

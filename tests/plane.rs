@@ -21,8 +21,8 @@ fn point_light_over_plane() {
         "levels = 3\ncoarsest = 50\nrays = 64\nbounces = 2\nsender_level = 2\ngather_levels = 2\n",
     )
     .unwrap();
-    let scene = common::load(&path, &[]);
-    let (hier, sol) = common::solve_cpu(&scene);
+    let (scene, params) = common::load(&path, &[]);
+    let (hier, sol) = common::solve_cpu(&scene, &params);
     let mut worst = 0.0f64;
     for j in 0..hier.nodes.len() {
         let (x, n) = node_world(&scene, &hier, j);
@@ -46,7 +46,7 @@ fn point_light_over_plane() {
             n: Vec3::Y,
         })
         .collect();
-    let vals = probe::evaluate(&scene, &hier, &sol, &probes, scene.params.output_level());
+    let vals = probe::evaluate(&scene, &hier, &sol, &probes, params.output_level());
     for (q, (d, ind)) in probes.iter().zip(&vals) {
         let want = plane_expected(h, i, (q.p.x as f64).hypot(q.p.z as f64));
         assert!(common::rel(d.x as f64, want) < 1e-5, "probe {q:?}: {d} vs {want}");
@@ -75,7 +75,7 @@ fn unneeded_work_is_skipped_and_reported() {
          intensity = [1.0, 1.0, 1.0]\ncutoff_angle = 30.0\nbeam_width = 20.0\n\n[camera]",
     );
     std::fs::write(&path, text).unwrap();
-    let scene = common::load(&path, &[]);
+    let (scene, params) = common::load(&path, &[]);
     for gpu in [false, true] {
         let ctx = gpu.then(|| {
             std::sync::Arc::new(
@@ -86,7 +86,7 @@ fn unneeded_work_is_skipped_and_reported() {
                 .expect("a Vulkan device"),
             )
         });
-        let r = meshrad::solve(&scene, ctx, &meshrad::progress::Progress::hidden()).unwrap();
+        let r = meshrad::solve(&scene, &params, ctx, &meshrad::progress::Progress::hidden()).unwrap();
         let st = &r.solution.stats;
         assert!(st.nodes_lit_per_light[0] > 0);
         assert_eq!(st.nodes_lit_per_light[1], 0);

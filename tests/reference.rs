@@ -47,7 +47,7 @@ fn reference_matches_the_furnace() {
     let dir = common::tmpdir();
     let (rho, i) = (0.5, 1.0);
     let path = furnace(dir.path(), 1.0, 4, rho, [0.3, -0.25, 0.2], i, "").unwrap();
-    let scene = common::load(&path, &[]);
+    let (scene, _) = common::load(&path, &[]);
     let points = sphere_points(&scene, 40);
     for k in [1u32, 3] {
         let opts = ReferenceOptions {
@@ -72,7 +72,7 @@ fn reference_matches_the_furnace() {
 fn reference_sees_no_indirect_light_over_a_lone_plane() {
     let dir = common::tmpdir();
     let path = meshrad::analytic::plane(dir.path(), 10.0, 2.0, 5.0, 0, "").unwrap();
-    let scene = common::load(&path, &[]);
+    let (scene, _) = common::load(&path, &[]);
     let est = indirect_many(
         &scene,
         &[(Vec3::ZERO, Vec3::Y), (Vec3::new(3.0, 0.0, 1.0), Vec3::Y)],

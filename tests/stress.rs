@@ -20,8 +20,8 @@ const SOLVER: &str = "levels = 4\ncoarsest = 80\nrays = 128\nbounces = 3\nsender
 
 /// Indirect irradiance at the room's probes (room units mapped through scale/offset).
 fn room_indirect(path: &Path, scale: f64, offset: [f64; 3], seed: u32) -> Vec<f64> {
-    let scene = common::load(path, &[("seed", &seed.to_string())]);
-    let (h, sol) = common::solve_cpu(&scene);
+    let (scene, params) = common::load(path, &[("seed", &seed.to_string())]);
+    let (h, sol) = common::solve_cpu(&scene, &params);
     room::probes()
         .iter()
         .map(|(p, n)| {
@@ -35,7 +35,7 @@ fn room_indirect(path: &Path, scale: f64, offset: [f64; 3], seed: u32) -> Vec<f6
                 &h,
                 x,
                 Vec3::from_array(n.map(|c| c as f32)),
-                scene.params.output_level(),
+                params.output_level(),
             );
             assert!(v.is_finite(), "non-finite irradiance at {p:?}");
             v.x as f64
@@ -126,9 +126,9 @@ fn a_million_tiny_triangles() {
         .unwrap()
         .replace("mesh = \"sphere.obj\"", "mesh = \"sphere.obj\"\ntessellate = 4");
     std::fs::write(&p, text).unwrap();
-    let scene = common::load(&p, &[]);
+    let (scene, params) = common::load(&p, &[]);
     assert!(scene.triangle_count() >= 1_000_000, "{}", scene.triangle_count());
-    let (h, sol) = common::solve_cpu(&scene);
+    let (h, sol) = common::solve_cpu(&scene, &params);
     let (_, eind, _) = furnace_expected(1.0, 0.5, 1.0, 2);
     let l = h.level_range(2);
     let mean = l.clone().map(|j| sol.values.indirect[j].x as f64).sum::<f64>() / l.len() as f64;
@@ -148,7 +148,7 @@ fn albedo_near_one_converges() {
         let solver = "levels = 3\ncoarsest = 40\nrays = 32\nbounces = 5000\nsender_level = 2\nvariant = \"modified\"\n\
                       stop_threshold = 1e-5\n";
         let p = furnace(dir.path(), 1.0, 3, rho, [0.0; 3], 1.0, solver).unwrap();
-        let scene = common::load(&p, &[]);
+        let (scene, params) = common::load(&p, &[]);
         let (h, sol) = if gpu {
             let ctx = Arc::new(
                 meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
@@ -157,11 +157,11 @@ fn albedo_near_one_converges() {
                 })
                 .expect("a Vulkan device"),
             );
-            let r = meshrad::solve(&scene, Some(ctx.clone()), &Progress::hidden()).unwrap();
+            let r = meshrad::solve(&scene, &params, Some(ctx.clone()), &Progress::hidden()).unwrap();
             assert_eq!(ctx.validation_errors(), 0);
             (r.hierarchy, r.solution)
         } else {
-            common::solve_cpu(&scene)
+            common::solve_cpu(&scene, &params)
         };
         let k = sol.stats.bounces.len() as u32;
         assert!(sol.stats.stopped_early.is_some(), "should stop on the threshold");
@@ -201,9 +201,9 @@ fn thin_wall_does_not_leak() {
         [0.25, 0.8, 0.5],
         SOLVER,
     );
-    let scene = common::load(&p, &[]);
-    let (h, sol) = common::solve_cpu(&scene);
-    let out = scene.params.output_level();
+    let (scene, params) = common::load(&p, &[]);
+    let (h, sol) = common::solve_cpu(&scene, &params);
+    let out = params.output_level();
     let support = h.support(0, out as usize);
     let e = |x: [f32; 3], n: [f32; 3]| {
         let (x, n) = (Vec3::from(x), Vec3::from(n));
@@ -251,12 +251,12 @@ fn thin_wall_does_not_leak() {
 /// with the CPU's float64 sum.
 #[test]
 fn gpu_reduction_of_a_million_samples() {
-    let mut scene = Scene::embedded_cornell(&[]).unwrap();
-    scene.params.levels = 2;
-    scene.params.sender_level = 1;
-    scene.params.coarsest = 4;
-    scene.params.rays = 1 << 20;
-    let h = meshrad::Hierarchy::build(&scene, &Progress::hidden()).unwrap();
+    let (scene, mut params) = Scene::embedded_cornell(&[]).unwrap();
+    params.levels = 2;
+    params.sender_level = 1;
+    params.coarsest = 4;
+    params.rays = 1 << 20;
+    let h = meshrad::Hierarchy::build(&scene, &params, &Progress::hidden()).unwrap();
     let ctx = Arc::new(
         meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
             validation: true,
@@ -265,8 +265,8 @@ fn gpu_reduction_of_a_million_samples() {
         .expect("a Vulkan device"),
     );
     use meshrad::transport::Backend;
-    let mut g = meshrad::gpu::GpuBackend::new(ctx.clone(), &scene, &h).unwrap();
-    let mut c = meshrad::transport::cpu::CpuBackend::new(&scene, &h, &Progress::hidden());
+    let mut g = meshrad::gpu::GpuBackend::new(ctx.clone(), &scene, &h, &params).unwrap();
+    let mut c = meshrad::transport::cpu::CpuBackend::new(&scene, &h, &params, &Progress::hidden());
     for b in [&mut g as &mut dyn Backend, &mut c] {
         b.direct().unwrap();
         b.init_unshot().unwrap();
@@ -291,7 +291,7 @@ fn gpu_reduction_of_a_million_samples() {
     assert!(lit > 0, "no level-0 node gathered light");
     println!(
         "STRESS GPU float32 reduction of {} samples per integral vs CPU float64: worst relative difference {worst:.2e} (tolerance 1e-4)",
-        scene.params.rays
+        params.rays
     );
     assert!(worst < 1e-4);
     assert_eq!(ctx.validation_errors(), 0);

@@ -115,29 +115,9 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     uint pad0;
 };
 
-// Per-dispatch parameters: src/gpu/globals.rs `Push`.
-layout(push_constant) uniform PushBlock {
-    GlobalsRef g;
-    uint first;   // first node (global index) of the range or level
-    uint count;   // elements (nodes or integrals) in this dispatch
-    uint offset;  // first integral of this batch within the level's active set
-    uint level;
-    uint flag;    // kernel-specific switch
-    uint aux;     // kernel-specific value
-    uint count_at; // NONE, or the counter holding the level's active count (indirect batches)
-    uint pad;
-} pc;
-
-// Integrals in this batch: `count`, or, for a batch dispatched indirectly, what the
-// level's active count (a counter written on the device) leaves from `offset`, at most
-// `count`.
-uint batch_count() {
-    if (pc.count_at == NONE) {
-        return pc.count;
-    }
-    uint total = pc.g.counters.v[pc.count_at];
-    return total > pc.offset ? min(total - pc.offset, pc.count) : 0u;
-}
+// Push constants are declared by each kernel (its own block, `<Name>Push`, mirrored by
+// src/gpu/kernels/<name>.rs); the four kernels of a gathering batch share
+// `GatherPush` (gather.glsl).
 
 // Linear invocation index over a 2-D grid of 1-D workgroups of LINEAR_GROUP threads
 // (grids may exceed 65535 groups). Not gl_WorkGroupSize: this file is included before a

@@ -19,9 +19,10 @@ use crate::error::{Error, Result};
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::metrics::{indirect_error, ErrorStats};
+use crate::output::probe::Probe;
 use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
-use crate::reference::{self, ReferenceOptions};
+use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
 
 /// Options of a sweep.
@@ -61,6 +62,8 @@ pub struct Row {
 }
 
 /// The configurations swept around `base`: (label, parameters).
+///
+/// Long by design: the list of configurations, one short block each.
 pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverParams)> {
     let mut out = Vec::new();
     let with = |label: String, f: &dyn Fn(&mut SolverParams)| {
@@ -164,17 +167,19 @@ pub fn mark_pareto(rows: &mut [Row]) {
     }
 }
 
-/// Runs the sweep for one scene on the given backends (`None` = CPU).
+/// Runs the sweep for one scene on the given backends (`None` = CPU): meshrad at every
+/// configuration around `base`, then path tracing at increasing samples, each against the
+/// same reference at the same probe points.
 pub fn sweep(
     name: &str,
-    scene: &mut Scene,
+    scene: &Scene,
+    base: &SolverParams,
     backends: &[Option<Arc<Context>>],
     opts: &AccuracyOptions,
     dir: &Path,
     progress: &Progress,
 ) -> Result<Vec<Row>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let base = scene.params.clone();
     let probes = probes_for(scene, opts.probes, 0xacc);
     let ref_opts = ReferenceOptions {
         samples: opts.reference_samples,
@@ -188,15 +193,33 @@ pub fn sweep(
         &dir.join(format!("{name}-reference.csv")),
         progress,
     )?;
+    let mut rows = meshrad_rows(name, scene, base, backends, opts, &probes, &reference, progress)?;
+    rows.extend(pathtrace_rows(name, scene, base, opts, &probes, &reference, progress));
+    mark_pareto(&mut rows);
+    Ok(rows)
+}
+
+/// meshrad at every configuration on every backend; a hierarchy is built once per
+/// (levels, coarsest) and shared by the configurations that only change the transport.
+#[allow(clippy::too_many_arguments)] // one sweep's fixed inputs, passed through once
+fn meshrad_rows(
+    name: &str,
+    scene: &Scene,
+    base: &SolverParams,
+    backends: &[Option<Arc<Context>>],
+    opts: &AccuracyOptions,
+    probes: &[Probe],
+    reference: &[Estimate],
+    progress: &Progress,
+) -> Result<Vec<Row>> {
     let mut rows = Vec::new();
     let mut hierarchies: Vec<(String, Hierarchy, f64)> = Vec::new();
-    for (label, params) in configurations(&base, opts.quick) {
-        scene.params = params.clone();
+    for (label, params) in configurations(base, opts.quick) {
         let key = format!("{}|{}", params.levels, params.coarsest);
         if !hierarchies.iter().any(|(k, _, _)| *k == key) {
             progress.stage(&format!("{name}: hierarchy {key}"));
             let t = Instant::now();
-            let h = Hierarchy::build(scene, &Progress::hidden())?;
+            let h = Hierarchy::build(scene, &params, &Progress::hidden())?;
             hierarchies.push((key.clone(), h, t.elapsed().as_secs_f64()));
         }
         let (_, h, th) = hierarchies.iter().find(|(k, _, _)| *k == key).expect("built above");
@@ -205,7 +228,15 @@ pub fn sweep(
                 "{name}: {label} on {}",
                 ctx.as_ref().map_or("cpu".into(), |c| c.info.name.clone())
             ));
-            let (m, _) = measure(scene, h, ctx.clone(), &probes, ctx.is_some(), &Progress::hidden())?;
+            let (m, _) = measure(
+                scene,
+                &params,
+                h,
+                ctx.clone(),
+                probes,
+                ctx.is_some(),
+                &Progress::hidden(),
+            )?;
             rows.push(Row {
                 scene: name.into(),
                 method: "meshrad".into(),
@@ -223,15 +254,28 @@ pub fn sweep(
                 seconds_hierarchy: *th,
                 integrals: m.integrals,
                 rays_traced: m.rays,
-                error: indirect_error(&m.values, &reference),
+                error: indirect_error(&m.values, reference),
                 pareto: false,
             });
         }
     }
-    scene.params = base.clone();
-    // Path tracing: the same points, independent seeds, increasing samples.
+    Ok(rows)
+}
+
+/// Path tracing at the same points with independent seeds and increasing samples; its
+/// time is scaled from per point to the camera's pixel count.
+fn pathtrace_rows(
+    name: &str,
+    scene: &Scene,
+    base: &SolverParams,
+    opts: &AccuracyOptions,
+    probes: &[Probe],
+    reference: &[Estimate],
+    progress: &Progress,
+) -> Vec<Row> {
     let pts: Vec<(Vec3, Vec3)> = probes.iter().map(|q| (q.p, q.n)).collect();
     let pixels = (scene.camera.width * scene.camera.height) as f64;
+    let mut rows = Vec::new();
     for &spp in &opts.pathtrace_samples {
         progress.stage(&format!("{name}: path tracing {spp} samples"));
         let o = ReferenceOptions {
@@ -261,12 +305,11 @@ pub fn sweep(
             seconds_hierarchy: 0.0,
             integrals: pts.len() as u64,
             rays_traced: 0,
-            error: indirect_error(&values, &reference),
+            error: indirect_error(&values, reference),
             pareto: false,
         });
     }
-    mark_pareto(&mut rows);
-    Ok(rows)
+    rows
 }
 
 /// The CSV of a sweep.

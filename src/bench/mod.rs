@@ -18,6 +18,7 @@ use crate::geom::rng::Rng;
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::output::probe::{self, Probe};
+use crate::params::SolverParams;
 use crate::progress::Progress;
 use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
@@ -111,18 +112,19 @@ pub struct Measured {
     pub values: Vec<Vec3>,
 }
 
-/// Solves `scene` with hierarchy `h` on the CPU (`ctx = None`) or a GPU and evaluates the
+/// Solves `scene` for `params` with hierarchy `h` on the CPU (`ctx = None`) or a GPU and evaluates the
 /// probes. With `warmup`, a first solve on the same backend is discarded (lavapipe
 /// compiles pipelines at their first dispatch).
 pub fn measure(
     scene: &Scene,
+    params: &SolverParams,
     h: &Hierarchy,
     ctx: Option<Arc<Context>>,
     probes: &[Probe],
     warmup: bool,
     progress: &Progress,
 ) -> Result<(Measured, Solution)> {
-    let (sol, gpu) = crate::run::transport_on(scene, h, ctx, warmup as u32, progress)?;
+    let (sol, gpu) = crate::run::transport_on(scene, params, h, ctx, warmup as u32, progress)?;
     // Upload and pipelines (preprocessing): the part of the GPU's wall time that is not
     // the solve it reports.
     let setup = gpu
@@ -131,7 +133,7 @@ pub fn measure(
         .unwrap_or(0.0);
     let backend = gpu.as_ref().map(|g| g.device.clone()).unwrap_or_else(|| "cpu".into());
     let st = &sol.stats;
-    let level = scene.params.output_level();
+    let level = params.output_level();
     let values = probes
         .iter()
         .map(|q| sol.indirect_at(scene, h, q.p, q.n, level).max(Vec3::ZERO))

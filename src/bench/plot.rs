@@ -30,6 +30,8 @@ const COLORS: [RGBColor; 8] = [
 ];
 
 /// Plots the rows of one scene into `path`.
+///
+/// Long by design: one chart, its axes, series and legend in the order plotters draws them.
 pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
     register_font();
     let err = |e: Box<dyn std::error::Error>| Error::Output {

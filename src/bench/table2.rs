@@ -17,7 +17,7 @@ use crate::error::{Error, Result};
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::metrics::{indirect_error, ErrorStats};
-use crate::params::Variant;
+use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
 use crate::reference::ReferenceOptions;
 use crate::scene::{Scene, Source};
@@ -99,7 +99,7 @@ pub struct SceneTable {
 
 /// Loads a spec's scene with the paper's Table 1 parameters (6 levels, sender level 4,
 /// 3 gathered levels, 512 rays, 6 bounces, the scene's coarsest count), or tiny ones.
-pub fn load(spec: &SceneSpec, dir: &Path, smoke: bool) -> Result<Scene> {
+pub fn load(spec: &SceneSpec, dir: &Path, smoke: bool) -> Result<(Scene, SolverParams)> {
     let table1: [(&str, i64); 6] = if smoke {
         [
             ("levels", 4),
@@ -154,16 +154,16 @@ pub fn run_scene(
 ) -> Result<SceneTable> {
     progress.stage(&format!("{}: loading", spec.name));
     let t = Instant::now();
-    let mut scene = load(spec, &opts.scene_dir, opts.smoke)?;
+    let (scene, mut params) = load(spec, &opts.scene_dir, opts.smoke)?;
     let seconds_load_bvh = t.elapsed().as_secs_f64();
     progress.stage(&format!("{}: hierarchy", spec.name));
     let t = Instant::now();
-    let h = Hierarchy::build(&scene, &Progress::hidden())?;
+    let h = Hierarchy::build(&scene, &params, &Progress::hidden())?;
     let seconds_hierarchy = t.elapsed().as_secs_f64();
     let probes = probes_for(&scene, opts.probes, 0x7ab1e2);
     let ref_opts = ReferenceOptions {
         samples: opts.reference_samples,
-        max_bounces: scene.params.bounces,
+        max_bounces: params.bounces,
         ..Default::default()
     };
     std::fs::create_dir_all(cache_dir).map_err(|e| Error::io(cache_dir, e))?;
@@ -185,9 +185,9 @@ pub fn run_scene(
     }
     for (name, ctx, variant) in plan {
         progress.stage(&format!("{}: {name}", spec.name));
-        scene.params.variant = variant;
+        params.variant = variant;
         let warm = ctx.is_some();
-        let (m, _) = measure(&scene, &h, ctx, &probes, warm, &Progress::hidden())?;
+        let (m, _) = measure(&scene, &params, &h, ctx, &probes, warm, &Progress::hidden())?;
         let error = indirect_error(&m.values, &reference);
         columns.push(Column {
             name: name.into(),
@@ -199,9 +199,9 @@ pub fn run_scene(
         name: spec.name.into(),
         triangles: scene.triangle_count(),
         nodes_per_level: h.stats.nodes_per_level.clone(),
-        coarsest: scene.params.coarsest,
-        rays: scene.params.rays,
-        bounces: scene.params.bounces,
+        coarsest: params.coarsest,
+        rays: params.rays,
+        bounces: params.bounces,
         seconds_load_bvh,
         seconds_hierarchy,
         seconds_reference,
@@ -220,6 +220,8 @@ fn secs(s: f64) -> String {
 }
 
 /// The table as Markdown: one block per scene, the paper's rows.
+///
+/// Long by design: the table's rows in the paper's order, one `writeln!` each.
 pub fn markdown(tables: &[SceneTable]) -> String {
     let mut s = String::new();
     for t in tables {

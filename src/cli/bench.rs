@@ -9,6 +9,7 @@ use clap::{Args, Subcommand};
 use crate::bench::{accuracy, plot, table2};
 use crate::gpu::{Context, ContextOptions};
 use crate::output;
+use crate::params::SolverParams;
 use crate::progress::Progress;
 use crate::scene::Scene;
 
@@ -112,7 +113,7 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
         pathtrace_samples: a.pathtrace.clone(),
         quick: a.quick,
     };
-    let scenes: Vec<(String, Scene)> = if a.scenes.is_empty() {
+    let scenes: Vec<(String, (Scene, SolverParams))> = if a.scenes.is_empty() {
         vec![("cornell".into(), Scene::embedded_cornell(&[])?)]
     } else {
         a.scenes
@@ -127,8 +128,8 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
             .collect::<Result<_>>()?
     };
     let mut all = Vec::new();
-    for (name, mut scene) in scenes {
-        let rows = accuracy::sweep(&name, &mut scene, &backends, &opts, &a.out, &progress)?;
+    for (name, (scene, params)) in scenes {
+        let rows = accuracy::sweep(&name, &scene, &params, &backends, &opts, &a.out, &progress)?;
         let png = a.out.join(format!("{name}.png"));
         plot::error_vs_time(&rows, &format!("{name}: error against time"), &png)?;
         all.extend(rows);

@@ -219,7 +219,7 @@ impl SolverArgs {
 }
 
 /// Loads a scene (or the embedded Cornell box) with the flags' overrides and limits.
-pub fn load_scene(path: Option<&Path>, args: &SolverArgs) -> Result<Scene> {
+pub fn load_scene(path: Option<&Path>, args: &SolverArgs) -> Result<(Scene, SolverParams)> {
     let overrides = args.overrides()?;
     let limits = args.limits()?;
     Ok(match path {
@@ -403,7 +403,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
     let t_all = Instant::now();
     let t = Instant::now();
-    let scene = load_scene(a.scene.as_deref(), &a.solver)?;
+    let (scene, params) = load_scene(a.scene.as_deref(), &a.solver)?;
     report_load(&scene, a.solver.quiet);
     let load = t.elapsed().as_secs_f64();
     // Where the outputs go is settled before the solve: a bad --out fails in a moment,
@@ -416,12 +416,12 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     }
     output::check_outputs(&planned, &scene.report.inputs)?;
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = crate::solve(&scene, ctx, &progress)?;
+    let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
     progress.stage("images");
-    let img = image::render(&scene, h, sol, scene.params.output_level(), &progress);
+    let img = image::render(&scene, h, sol, params.output_level(), &progress);
     let mut files = output::Outputs::default();
     image::encode_all(&a.out, &img, &mut files)?;
     if let Some(p) = &a.export_nodes {
@@ -442,15 +442,15 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         scene: SceneSummary::of(&scene),
         backend: sol.stats.backend.clone(),
         variant: sol.variant.name(),
-        seed: scene.params.seed,
-        params: &scene.params,
+        seed: params.seed,
+        params: &params,
         hierarchy: &h.stats,
         solve: &sol.stats,
         gpu: run.gpu.as_ref(),
         image: ImageSummary {
             width: img.width,
             height: img.height,
-            output_level: scene.params.output_level(),
+            output_level: params.output_level(),
             negative_indirect_pixels_clamped: img.clamped,
         },
         seconds,
@@ -476,7 +476,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
 fn probe_cmd(a: ProbeArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
     let probes = probe::read(&a.points)?;
-    let scene = load_scene(Some(&a.scene), &a.solver)?;
+    let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, a.solver.quiet);
     if let Some(p) = &a.out {
         let mut inputs = scene.report.inputs.clone();
@@ -484,15 +484,9 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
         output::check_outputs(&[("--out", p.clone())], &inputs)?;
     }
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = crate::solve(&scene, ctx, &progress)?;
+    let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
-    let values = probe::evaluate(
-        &scene,
-        &run.hierarchy,
-        &run.solution,
-        &probes,
-        scene.params.output_level(),
-    );
+    let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, params.output_level());
     let text = probe::csv(&probes, &values);
     progress.finish();
     match &a.out {

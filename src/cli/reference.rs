@@ -65,10 +65,10 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     if !(2..=MAX_SAMPLES).contains(&samples) {
         anyhow::bail!("--samples {samples}: must be within 2..={MAX_SAMPLES} (a standard error needs two samples)");
     }
-    let scene = Scene::load(&a.scene, &[])?;
+    let (scene, params) = Scene::load(&a.scene, &[])?;
     let opts = ReferenceOptions {
         samples,
-        max_bounces: a.max_bounces.unwrap_or(scene.params.bounces),
+        max_bounces: a.max_bounces.unwrap_or(params.bounces),
         seed: a.seed,
         ..Default::default()
     };

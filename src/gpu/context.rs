@@ -425,96 +425,127 @@ impl Drop for Partial {
 impl Partial {
     fn finish(mut self, log: Box<ValidationLog>, opts: &ContextOptions) -> Result<Context> {
         let instance = self.instance.as_ref().expect("instance present").clone();
-        // SAFETY: enumeration on a valid instance.
-        let pds = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
-        let infos: Vec<DeviceInfo> = pds
-            .iter()
-            .enumerate()
-            .map(|(i, &pd)| describe(&instance, pd, i))
-            .collect();
-        let index = pick(&infos, opts.device.as_deref())?;
-        let physical = pds[index];
-        let mut info = infos[index].clone();
-        // SAFETY: queries on a valid physical device.
-        let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
-        let queue_family = families
-            .iter()
-            .enumerate()
-            .filter(|(_, q)| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
-            .min_by_key(|(_, q)| q.queue_flags.contains(vk::QueueFlags::GRAPHICS))
-            .map(|(i, _)| i as u32)
-            .ok_or_else(|| Error::Gpu("no compute queue".into()))?;
-        let timestamps = families[queue_family as usize].timestamp_valid_bits > 0 && info.timestamp_period_ns > 0.0;
-        let mut m11 = vk::PhysicalDeviceMaintenance3Properties::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut m11);
-        // SAFETY: as above.
-        unsafe { instance.get_physical_device_properties2(physical, &mut p2) };
-        info.max_allocation_bytes = m11.max_memory_allocation_size;
-
-        let priorities = [1.0f32];
-        let queue_info = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&priorities)];
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
-        let features = vk::PhysicalDeviceFeatures::default();
-        let mut f2 = vk::PhysicalDeviceFeatures2::default()
-            .features(features)
-            .push_next(&mut f12);
-        let device_info = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&queue_info)
-            .push_next(&mut f2);
-        // SAFETY: the physical device supports every enabled feature (checked in `describe`).
-        let device = unsafe { instance.create_device(physical, &device_info, None) }.vk("vkCreateDevice")?;
-        // SAFETY: the family exists and has one queue.
-        let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        let pool_info = vk::CommandPoolCreateInfo::default()
-            .queue_family_index(queue_family)
-            .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
-        // SAFETY: valid device.
-        let pool = match unsafe { device.create_command_pool(&pool_info, None) } {
-            Ok(p) => p,
-            Err(r) => {
-                // SAFETY: nothing was created from the device yet.
-                unsafe { device.destroy_device(None) };
-                return Err(super::vk_err("vkCreateCommandPool", r));
-            }
-        };
-        let allocator = match Allocator::new(&AllocatorCreateDesc {
-            instance: instance.clone(),
-            device: device.clone(),
-            physical_device: physical,
-            debug_settings: Default::default(),
-            buffer_device_address: true,
-            allocation_sizes: Default::default(),
-        }) {
-            Ok(a) => a,
-            Err(e) => {
-                // SAFETY: the pool and device were created above and are unused.
-                unsafe {
-                    device.destroy_command_pool(pool, None);
-                    device.destroy_device(None);
-                }
-                return Err(Error::Gpu(format!("gpu-allocator: {e}")));
-            }
-        };
+        let chosen = choose_device(&instance, opts)?;
+        let (device, queue, pool, allocator) = open_device(&instance, chosen.physical, chosen.queue_family)?;
         let instance = self.instance.take().expect("instance present");
         let debug = self.debug.take();
         let entry = self.entry.take().expect("entry present");
         Ok(Context {
-            info,
+            info: chosen.info,
             device,
             queue,
-            queue_family,
+            queue_family: chosen.queue_family,
             pool,
-            timestamps,
+            timestamps: chosen.timestamps,
             allocator: ManuallyDrop::new(Mutex::new(allocator)),
             log,
-            physical,
+            physical: chosen.physical,
             debug,
             instance,
             _entry: entry,
         })
     }
+}
+
+/// The physical device a context runs on and what it offers.
+struct Chosen {
+    physical: vk::PhysicalDevice,
+    info: DeviceInfo,
+    queue_family: u32,
+    timestamps: bool,
+}
+
+/// The device `opts` names (or the best usable one), its compute queue family (one
+/// without graphics if there is one), whether it times kernels, and its largest
+/// allocation.
+fn choose_device(instance: &ash::Instance, opts: &ContextOptions) -> Result<Chosen> {
+    // SAFETY: enumeration on a valid instance.
+    let pds = unsafe { instance.enumerate_physical_devices() }.vk("vkEnumeratePhysicalDevices")?;
+    let infos: Vec<DeviceInfo> = pds
+        .iter()
+        .enumerate()
+        .map(|(i, &pd)| describe(instance, pd, i))
+        .collect();
+    let index = pick(&infos, opts.device.as_deref())?;
+    let physical = pds[index];
+    let mut info = infos[index].clone();
+    // SAFETY: queries on a valid physical device.
+    let families = unsafe { instance.get_physical_device_queue_family_properties(physical) };
+    let queue_family = families
+        .iter()
+        .enumerate()
+        .filter(|(_, q)| q.queue_flags.contains(vk::QueueFlags::COMPUTE))
+        .min_by_key(|(_, q)| q.queue_flags.contains(vk::QueueFlags::GRAPHICS))
+        .map(|(i, _)| i as u32)
+        .ok_or_else(|| Error::Gpu("no compute queue".into()))?;
+    let timestamps = families[queue_family as usize].timestamp_valid_bits > 0 && info.timestamp_period_ns > 0.0;
+    let mut m11 = vk::PhysicalDeviceMaintenance3Properties::default();
+    let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut m11);
+    // SAFETY: as above.
+    unsafe { instance.get_physical_device_properties2(physical, &mut p2) };
+    info.max_allocation_bytes = m11.max_memory_allocation_size;
+    Ok(Chosen {
+        physical,
+        info,
+        queue_family,
+        timestamps,
+    })
+}
+
+/// The logical device with buffer device addresses, its queue, a command pool and the
+/// allocator; on failure, what was created is destroyed again.
+fn open_device(
+    instance: &ash::Instance,
+    physical: vk::PhysicalDevice,
+    queue_family: u32,
+) -> Result<(ash::Device, vk::Queue, vk::CommandPool, Allocator)> {
+    let priorities = [1.0f32];
+    let queue_info = [vk::DeviceQueueCreateInfo::default()
+        .queue_family_index(queue_family)
+        .queue_priorities(&priorities)];
+    let mut f12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
+    let features = vk::PhysicalDeviceFeatures::default();
+    let mut f2 = vk::PhysicalDeviceFeatures2::default()
+        .features(features)
+        .push_next(&mut f12);
+    let device_info = vk::DeviceCreateInfo::default()
+        .queue_create_infos(&queue_info)
+        .push_next(&mut f2);
+    // SAFETY: the physical device supports every enabled feature (checked in `describe`).
+    let device = unsafe { instance.create_device(physical, &device_info, None) }.vk("vkCreateDevice")?;
+    // SAFETY: the family exists and has one queue.
+    let queue = unsafe { device.get_device_queue(queue_family, 0) };
+    let pool_info = vk::CommandPoolCreateInfo::default()
+        .queue_family_index(queue_family)
+        .flags(vk::CommandPoolCreateFlags::RESET_COMMAND_BUFFER);
+    // SAFETY: valid device.
+    let pool = match unsafe { device.create_command_pool(&pool_info, None) } {
+        Ok(p) => p,
+        Err(r) => {
+            // SAFETY: nothing was created from the device yet.
+            unsafe { device.destroy_device(None) };
+            return Err(super::vk_err("vkCreateCommandPool", r));
+        }
+    };
+    let allocator = match Allocator::new(&AllocatorCreateDesc {
+        instance: instance.clone(),
+        device: device.clone(),
+        physical_device: physical,
+        debug_settings: Default::default(),
+        buffer_device_address: true,
+        allocation_sizes: Default::default(),
+    }) {
+        Ok(a) => a,
+        Err(e) => {
+            // SAFETY: the pool and device were created above and are unused.
+            unsafe {
+                device.destroy_command_pool(pool, None);
+                device.destroy_device(None);
+            }
+            return Err(Error::Gpu(format!("gpu-allocator: {e}")));
+        }
+    };
+    Ok((device, queue, pool, allocator))
 }
 
 impl Drop for Context {

@@ -1,6 +1,6 @@
-//! The two host/device parameter blocks of every kernel, mirrored by name in
+//! The host/device parameter block every kernel reads, mirrored by name in
 //! `glsl/include/layout.glsl`: `Globals` (device addresses of all buffers and the solve's
-//! scalars, written once) and `Push` (push constants per dispatch).
+//! scalars, written once). Push constants are per kernel (`super::kernels`).
 
 use bytemuck::{Pod, Zeroable};
 
@@ -59,22 +59,6 @@ pub struct Globals {
     pub pad0: u32,
 }
 
-/// Push constants (the GLSL `PushBlock`).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct Push {
-    pub globals: u64,
-    pub first: u32,
-    pub count: u32,
-    pub offset: u32,
-    pub level: u32,
-    pub flag: u32,
-    pub aux: u32,
-    /// `NONE`, or the counter holding the level's active count (indirect batches).
-    pub count_at: u32,
-    pub pad: u32,
-}
-
 /// A ray as the kernels store it (32 bytes).
 pub const RAY_BYTES: u64 = 32;
 /// A hit record (16 bytes).
@@ -86,5 +70,4 @@ const _: () = {
     assert!(std::mem::size_of::<Globals>() == 35 * 8 + 14 * 4);
     assert!(std::mem::offset_of!(Globals, num_objects) == 280);
     assert!(std::mem::offset_of!(Globals, sender_level) == 328);
-    assert!(std::mem::size_of::<Push>() == 40);
 };

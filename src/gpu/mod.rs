@@ -10,6 +10,8 @@ pub mod globals;
 pub mod kernels;
 pub mod pipeline;
 pub mod profiler;
+pub mod resources;
+pub mod schedule;
 
 pub use backend::GpuBackend;
 pub use context::{list_devices, Context, ContextOptions, DeviceInfo};

@@ -1,17 +1,18 @@
-//! Compute pipelines from embedded SPIR-V. There are no descriptor sets: every kernel
-//! takes the same push-constant block (`Push`), whose first field is the address of the
-//! `Globals` block. The variant and texturing are specialization constants.
+//! Compute pipelines from embedded SPIR-V. There are no descriptor sets: each kernel has
+//! its own push-constant struct (`super::kernels::<name>`), whose first field is the
+//! address of the `Globals` block. The variant, texturing and the BVH kind are
+//! specialization constants.
 
 use std::sync::Arc;
 
 use ash::vk;
+use bytemuck::Pod;
 
 use super::context::Context;
-use super::globals::Push;
 use super::VkCheck;
 use crate::error::{Error, Result};
 
-/// Values of the specialization constants (ids 0, 1, 2 in `layout.glsl`).
+/// Values of the specialization constants (ids `SPEC_*` in `crate::constants`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Specialization {
     pub variant: u32,
@@ -28,8 +29,14 @@ pub struct Kernel {
 }
 
 impl Kernel {
-    /// Builds kernel `name` from its SPIR-V.
-    pub fn new(ctx: &Arc<Context>, name: &'static str, spirv: &[u8], spec: Specialization) -> Result<Kernel> {
+    /// Builds kernel `name` from its SPIR-V, with a push-constant range of `push_bytes`.
+    pub fn new(
+        ctx: &Arc<Context>,
+        name: &'static str,
+        spirv: &[u8],
+        spec: Specialization,
+        push_bytes: u32,
+    ) -> Result<Kernel> {
         let code = ash::util::read_spv(&mut std::io::Cursor::new(spirv))
             .map_err(|e| Error::Gpu(format!("kernel {name}: bad SPIR-V: {e}")))?;
         let d = &ctx.device;
@@ -39,7 +46,7 @@ impl Kernel {
         let ranges = [vk::PushConstantRange::default()
             .stage_flags(vk::ShaderStageFlags::COMPUTE)
             .offset(0)
-            .size(std::mem::size_of::<Push>() as u32)];
+            .size(push_bytes)];
         let layout_info = vk::PipelineLayoutCreateInfo::default().push_constant_ranges(&ranges);
         // SAFETY: valid device.
         let layout = match unsafe { d.create_pipeline_layout(&layout_info, None) } {
@@ -96,7 +103,7 @@ impl Kernel {
 
     /// Records a dispatch of `groups` workgroups (laid out in 2-D when they exceed the
     /// device's x limit) with push constants `push`.
-    pub fn dispatch(&self, cmd: vk::CommandBuffer, push: &Push, groups: u64) {
+    pub fn dispatch<T: Pod>(&self, cmd: vk::CommandBuffer, push: &T, groups: u64) {
         if groups == 0 {
             return;
         }
@@ -109,13 +116,13 @@ impl Kernel {
     }
 
     /// Records a dispatch whose grid the device wrote at byte `offset` of `args`.
-    pub fn dispatch_indirect(&self, cmd: vk::CommandBuffer, push: &Push, args: vk::Buffer, offset: u64) {
+    pub fn dispatch_indirect<T: Pod>(&self, cmd: vk::CommandBuffer, push: &T, args: vk::Buffer, offset: u64) {
         self.bind(cmd, push);
         // SAFETY: recording state; `args` holds a VkDispatchIndirectCommand at `offset`.
         unsafe { self.ctx.device.cmd_dispatch_indirect(cmd, args, offset) };
     }
 
-    fn bind(&self, cmd: vk::CommandBuffer, push: &Push) {
+    fn bind<T: Pod>(&self, cmd: vk::CommandBuffer, push: &T) {
         let d = &self.ctx.device;
         // SAFETY: recording state; the push range matches the layout.
         unsafe {

@@ -21,7 +21,7 @@ use crate::geom::sampling::{cosine_direction, integral_rotation, onb};
 use crate::geom::transform::{xform_point, xform_vector};
 use crate::geom::Ray;
 use crate::layout::{KdSplit, Node, ObjectInfo, Parent};
-use crate::params::MAX_LEVELS;
+use crate::params::{SolverParams, MAX_LEVELS};
 use crate::progress::Progress;
 use crate::scene::{reach, Scene};
 use poisson::Candidate;
@@ -39,99 +39,115 @@ fn support_clips(scene: &Scene, nodes: &[Node], objects: &[ObjectLevels], kappa:
     nodes
         .par_iter()
         .map(|nd| {
-            let o = nd.object as usize;
-            let obj = &scene.objects[o];
-            let h_obj = kappa * objects[o].radius[nd.level as usize];
-            let h = h_obj * obj.transform.scale;
-            let n_obj = Vec3::from(nd.normal);
-            let x_obj = Vec3::from(nd.pos);
-            let n = xform_vector(&obj.to_world, n_obj).normalize();
-            let x = xform_point(&obj.to_world, x_obj);
-            let origin = scene.offset(x, n) + n * (0.02 * h);
-            let (t, b) = onb(n_obj);
-            // Candidate planes: (quantised direction, distance as a fraction of h, the
-            // directions whose rays met it).
-            let mut planes: Vec<([i16; 2], f32, u8)> = Vec::new();
-            for k in 0..8 {
-                let a = k as f32 * std::f32::consts::FRAC_PI_4;
-                let d_obj = t * a.cos() + b * a.sin();
-                let d = xform_vector(&obj.to_world, d_obj).normalize();
-                let Some(hit) = scene.intersect(&Ray { o: origin, d }, 1.1 * h) else {
-                    continue;
-                };
-                let hit_obj = &scene.objects[hit.object as usize];
-                let tri = &scene.tris[hit.tri as usize];
-                let hn = xform_vector(&hit_obj.to_world, crate::geom::ray::tri_normal(tri)).normalize();
-                if hn.dot(n).abs() >= 0.5 {
-                    continue;
-                }
-                // The plane's normal in the node's tangent frame, pointing away from the node.
-                let hn_obj = xform_vector(&obj.to_object, hn);
-                let (mx, my) = (hn_obj.dot(t), hn_obj.dot(b));
-                let len = (mx * mx + my * my).sqrt();
-                if len < 1e-3 {
-                    continue;
-                }
-                let s = if mx * d_obj.dot(t) + my * d_obj.dot(b) < 0.0 {
-                    -1.0
-                } else {
-                    1.0
-                };
-                let q = [
-                    (s * mx / len * weight::CLIP_DIR).round() as i16,
-                    (s * my / len * weight::CLIP_DIR).round() as i16,
-                ];
-                let (ux, uy) = (q[0] as f32 / weight::CLIP_DIR, q[1] as f32 / weight::CLIP_DIR);
-                let p_obj = xform_point(&obj.to_object, origin + d * hit.t) - x_obj;
-                let dist = (p_obj.dot(t) * ux + p_obj.dot(b) * uy) / h_obj;
-                if dist <= 0.0 {
-                    continue;
-                }
-                let bit = 1u8 << weight::direction8(d_obj.dot(t), d_obj.dot(b));
-                match planes.iter_mut().find(|(u, _, _)| {
-                    (u[0] as f32 * q[0] as f32 + u[1] as f32 * q[1] as f32) / (weight::CLIP_DIR * weight::CLIP_DIR)
-                        > 0.95
-                }) {
-                    Some(pl) => {
-                        pl.1 = pl.1.min(dist);
-                        pl.2 |= bit;
-                    }
-                    None => planes.push((q, dist, bit)),
-                }
-            }
-            // A plane met by ray k may also come within h in the neighbouring directions'
-            // sectors (±22.5° around k±1·45°) where those rays reached past h: add them.
-            for (q, dist, mask) in &mut planes {
-                let (ux, uy) = (q[0] as f32 / weight::CLIP_DIR, q[1] as f32 / weight::CLIP_DIR);
-                let len = (ux * ux + uy * uy).sqrt();
-                let hits = *mask;
-                for k in 0..8u32 {
-                    let near = hits & (1 << ((k + 1) % 8)) != 0 || hits & (1 << ((k + 7) % 8)) != 0;
-                    if hits & (1 << k) != 0 || !near {
-                        continue;
-                    }
-                    // Largest cosine between u and a direction of sector k.
-                    let centre = k as f32 * std::f32::consts::FRAC_PI_4;
-                    let (cx, cy) = (centre.cos(), centre.sin());
-                    let angle = ((cx * ux + cy * uy) / len).clamp(-1.0, 1.0).acos();
-                    let best = (angle - std::f32::consts::FRAC_PI_8).max(0.0).cos() * len;
-                    if best > 0.0 && *dist / best < 1.0 {
-                        *mask |= 1 << k;
-                    }
-                }
-            }
-            planes.sort_by(|a, b| a.1.total_cmp(&b.1));
-            let mut clip = weight::NO_CLIP;
-            for (k, (q, dist, mask)) in planes.iter().take(2).enumerate() {
-                let d = ((dist * weight::CLIP_SCALE).floor() as u32).min(0xfffe) as u16;
-                clip[8 * k..8 * k + 2].copy_from_slice(&q[0].to_le_bytes());
-                clip[8 * k + 2..8 * k + 4].copy_from_slice(&q[1].to_le_bytes());
-                clip[8 * k + 4..8 * k + 6].copy_from_slice(&d.to_le_bytes());
-                clip[8 * k + 6] = *mask;
-            }
-            clip
+            let h_obj = kappa * objects[nd.object as usize].radius[nd.level as usize];
+            let mut planes = walls_across_support(scene, nd, h_obj);
+            widen_to_neighbour_sectors(&mut planes);
+            encode_clip(planes)
         })
         .collect()
+}
+
+/// A plane standing across a node's support: its quantised direction in the node's
+/// tangent frame (away from the node), its distance as a fraction of the support, and the
+/// 8 directions (bits) whose rays met it.
+type Plane = ([i16; 2], f32, u8);
+
+/// The planes the 8 tangent rays of node `nd` (support `h_obj`, object space) meet.
+fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32) -> Vec<Plane> {
+    let obj = &scene.objects[nd.object as usize];
+    let h = h_obj * obj.transform.scale;
+    let n_obj = Vec3::from(nd.normal);
+    let x_obj = Vec3::from(nd.pos);
+    let n = xform_vector(&obj.to_world, n_obj).normalize();
+    let x = xform_point(&obj.to_world, x_obj);
+    let origin = scene.offset(x, n) + n * (0.02 * h);
+    let (t, b) = onb(n_obj);
+    let mut planes: Vec<Plane> = Vec::new();
+    for k in 0..8 {
+        let a = k as f32 * std::f32::consts::FRAC_PI_4;
+        let d_obj = t * a.cos() + b * a.sin();
+        let d = xform_vector(&obj.to_world, d_obj).normalize();
+        let Some(hit) = scene.intersect(&Ray { o: origin, d }, 1.1 * h) else {
+            continue;
+        };
+        let hit_obj = &scene.objects[hit.object as usize];
+        let tri = &scene.tris[hit.tri as usize];
+        let hn = xform_vector(&hit_obj.to_world, crate::geom::ray::tri_normal(tri)).normalize();
+        if hn.dot(n).abs() >= 0.5 {
+            continue;
+        }
+        // The plane's normal in the node's tangent frame, pointing away from the node.
+        let hn_obj = xform_vector(&obj.to_object, hn);
+        let (mx, my) = (hn_obj.dot(t), hn_obj.dot(b));
+        let len = (mx * mx + my * my).sqrt();
+        if len < 1e-3 {
+            continue;
+        }
+        let s = if mx * d_obj.dot(t) + my * d_obj.dot(b) < 0.0 {
+            -1.0
+        } else {
+            1.0
+        };
+        let q = [
+            (s * mx / len * weight::CLIP_DIR).round() as i16,
+            (s * my / len * weight::CLIP_DIR).round() as i16,
+        ];
+        let (ux, uy) = (q[0] as f32 / weight::CLIP_DIR, q[1] as f32 / weight::CLIP_DIR);
+        let p_obj = xform_point(&obj.to_object, origin + d * hit.t) - x_obj;
+        let dist = (p_obj.dot(t) * ux + p_obj.dot(b) * uy) / h_obj;
+        if dist <= 0.0 {
+            continue;
+        }
+        let bit = 1u8 << weight::direction8(d_obj.dot(t), d_obj.dot(b));
+        match planes.iter_mut().find(|(u, _, _)| {
+            (u[0] as f32 * q[0] as f32 + u[1] as f32 * q[1] as f32) / (weight::CLIP_DIR * weight::CLIP_DIR) > 0.95
+        }) {
+            Some(pl) => {
+                pl.1 = pl.1.min(dist);
+                pl.2 |= bit;
+            }
+            None => planes.push((q, dist, bit)),
+        }
+    }
+    planes
+}
+
+/// A plane met by ray k may also come within h in the neighbouring directions' sectors
+/// (±22.5° around k±1·45°) where those rays reached past h: add them.
+fn widen_to_neighbour_sectors(planes: &mut [Plane]) {
+    for (q, dist, mask) in planes {
+        let (ux, uy) = (q[0] as f32 / weight::CLIP_DIR, q[1] as f32 / weight::CLIP_DIR);
+        let len = (ux * ux + uy * uy).sqrt();
+        let hits = *mask;
+        for k in 0..8u32 {
+            let near = hits & (1 << ((k + 1) % 8)) != 0 || hits & (1 << ((k + 7) % 8)) != 0;
+            if hits & (1 << k) != 0 || !near {
+                continue;
+            }
+            // Largest cosine between u and a direction of sector k.
+            let centre = k as f32 * std::f32::consts::FRAC_PI_4;
+            let (cx, cy) = (centre.cos(), centre.sin());
+            let angle = ((cx * ux + cy * uy) / len).clamp(-1.0, 1.0).acos();
+            let best = (angle - std::f32::consts::FRAC_PI_8).max(0.0).cos() * len;
+            if best > 0.0 && *dist / best < 1.0 {
+                *mask |= 1 << k;
+            }
+        }
+    }
+}
+
+/// The nearest two planes, packed into a node's clip record (`weight::Clip`).
+fn encode_clip(mut planes: Vec<Plane>) -> weight::Clip {
+    planes.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut clip = weight::NO_CLIP;
+    for (k, (q, dist, mask)) in planes.iter().take(2).enumerate() {
+        let d = ((dist * weight::CLIP_SCALE).floor() as u32).min(0xfffe) as u16;
+        clip[8 * k..8 * k + 2].copy_from_slice(&q[0].to_le_bytes());
+        clip[8 * k + 2..8 * k + 4].copy_from_slice(&q[1].to_le_bytes());
+        clip[8 * k + 4..8 * k + 6].copy_from_slice(&d.to_le_bytes());
+        clip[8 * k + 6] = *mask;
+    }
+    clip
 }
 
 /// Whether a candidate lies in a crevice: 7 of 8 stratified cosine-distributed rays from it
@@ -213,19 +229,18 @@ pub struct Hierarchy {
     pub stats: HierarchyStats,
 }
 
-impl Hierarchy {
-    /// Builds the hierarchy of `scene` with its solver parameters.
-    pub fn build(scene: &Scene, progress: &Progress) -> Result<Hierarchy> {
-        let p = &scene.params;
-        let m = p.levels as usize;
-        let mut stats = HierarchyStats::default();
-        let t = Instant::now();
-        progress.stage("reachable surfaces");
-        let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
-        stats.seconds_reach = t.elapsed().as_secs_f64();
-        stats.reachable_sides = sides.iter().filter(|&&s| s).count();
+/// The levels' density: each object's reachable area (world units²) and the world-space
+/// Poisson radius of each level (§3: `r_0 = sqrt(0.7 A / N_0)`, halved per level).
+struct Density {
+    areas: Vec<f64>,
+    radius: Vec<f64>,
+}
 
-        // World-space radii from the total reachable area (§3: r_0 = sqrt(0.7 A / N_0)).
+impl Density {
+    /// Checks that light reaches some surface and that the candidate cap leaves the finest
+    /// level its density (else the solve would lose light silently).
+    fn plan(scene: &Scene, p: &SolverParams, sides: &[bool]) -> Result<Density> {
+        let m = p.levels as usize;
         let areas: Vec<f64> = scene
             .objects
             .iter()
@@ -236,7 +251,6 @@ impl Hierarchy {
             })
             .collect();
         let area: f64 = areas.iter().sum();
-        stats.reachable_area = area;
         if area <= 0.0 {
             return Err(Error::SceneValue {
                 path: scene.path.clone(),
@@ -249,14 +263,12 @@ impl Hierarchy {
             });
         }
         let r0 = (0.7 * area / p.coarsest as f64).sqrt();
-        let radius: Vec<f64> = (0..m).map(|l| r0 / (1u64 << l) as f64).collect();
-        stats.radius_per_level = radius.iter().map(|&r| r as f32).collect();
-        let expected = |a: f64, l: usize| 0.7 * a / (radius[l] * radius[l]);
-
-        // A pool smaller than the finest level's node count cannot give that level its
-        // density: the solve would lose light silently.
-        for (i, &a) in areas.iter().enumerate() {
-            let need = expected(a, m - 1).ceil();
+        let d = Density {
+            radius: (0..m).map(|l| r0 / (1u64 << l) as f64).collect(),
+            areas,
+        };
+        for (i, &a) in d.areas.iter().enumerate() {
+            let need = d.expected(a, m - 1).ceil();
             if need > p.max_candidates as f64 {
                 return Err(Error::param(
                     "max_candidates",
@@ -268,131 +280,189 @@ impl Hierarchy {
                 ));
             }
         }
+        Ok(d)
+    }
 
-        // Candidates per object.
+    /// Nodes a Poisson-disk set of level `l` holds on area `a`.
+    fn expected(&self, a: f64, l: usize) -> f64 {
+        0.7 * a / (self.radius[l] * self.radius[l])
+    }
+
+    /// Candidates of object `o`'s pool (of `pool` in all) that level `l` throws darts
+    /// from: `candidate_factor` times the level's expected count, at least 64.
+    fn take(&self, p: &SolverParams, o: usize, l: usize, pool: usize) -> usize {
+        let want = (p.candidate_factor as f64 * self.expected(self.areas[o], l)).ceil() as usize;
+        want.clamp(pool.min(64), pool)
+    }
+}
+
+/// Candidates per object on its reachable sides, enough for the finest level, within
+/// `max_candidates`.
+fn candidate_pools(scene: &Scene, p: &SolverParams, sides: &[bool], d: &Density) -> Vec<Vec<Candidate>> {
+    let m = p.levels as usize;
+    scene
+        .objects
+        .iter()
+        .enumerate()
+        .map(|(i, o)| {
+            let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
+            let want = (p.candidate_factor as f64 * d.expected(d.areas[i], m - 1)).ceil();
+            let count = (want as u64).min(p.max_candidates as u64) as usize;
+            poisson::candidates(
+                &scene.tris[r.clone()],
+                &sides[r.start * 2..r.end * 2],
+                count,
+                (p.seed as u64) << 32 | i as u64,
+            )
+        })
+        .collect()
+}
+
+/// The Poisson-disk set of every (object, level), object-major, independent and in
+/// parallel; candidates in crevices are dropped (the test memoised per candidate).
+fn poisson_levels(
+    scene: &Scene,
+    p: &SolverParams,
+    d: &Density,
+    pools: &[Vec<Candidate>],
+    stats: &mut HierarchyStats,
+) -> Vec<Vec<Candidate>> {
+    let m = p.levels as usize;
+    let jobs: Vec<(usize, usize)> = (0..scene.objects.len())
+        .flat_map(|o| (0..m).map(move |l| (o, l)))
+        .collect();
+    // Crevice test, memoised per candidate across levels: 0 unknown, 1 open, 2 crevice.
+    let memo: Vec<Vec<AtomicU8>> = pools
+        .iter()
+        .map(|p| (0..p.len()).map(|_| AtomicU8::new(0)).collect())
+        .collect();
+    let d_min = (p.crevice_distance as f64 * d.radius[m - 1]) as f32;
+    let sets: Vec<Vec<Candidate>> = jobs
+        .par_iter()
+        .map(|&(o, l)| {
+            let pool = &pools[o];
+            let n = d.take(p, o, l, pool.len());
+            let r = d.radius[l] / scene.objects[o].transform.scale as f64;
+            let usable = |i: usize| {
+                if d_min <= 0.0 {
+                    return true;
+                }
+                let state = memo[o][i].load(Ordering::Relaxed);
+                if state != 0 {
+                    return state == 1;
+                }
+                let open = !in_crevice(scene, o, &pool[i], d_min, i as u32);
+                memo[o][i].store(if open { 1 } else { 2 }, Ordering::Relaxed);
+                open
+            };
+            poisson::dart_throw(&pool[..n], r as f32, usable)
+        })
+        .collect();
+    stats.crevice_candidates_dropped = memo
+        .iter()
+        .map(|m| m.iter().filter(|s| s.load(Ordering::Relaxed) == 2).count())
+        .sum();
+    let mut pool_sizes = vec![0u64; m];
+    for &(o, l) in &jobs {
+        pool_sizes[l] += d.take(p, o, l, pools[o].len()) as u64;
+    }
+    stats.candidates_per_level = pool_sizes;
+    sets
+}
+
+/// The node array, level-major then object, with each level's start and each object's
+/// ranges and object-space radii.
+fn assemble(scene: &Scene, d: &Density, sets: Vec<Vec<Candidate>>) -> (Vec<Node>, Vec<u32>, Vec<ObjectLevels>) {
+    let m = d.radius.len();
+    let mut nodes = Vec::new();
+    let mut level_start = Vec::with_capacity(m + 1);
+    let mut objects = vec![
+        ObjectLevels {
+            start: vec![0; m],
+            count: vec![0; m],
+            radius: vec![0.0; m],
+        };
+        scene.objects.len()
+    ];
+    for l in 0..m {
+        level_start.push(nodes.len() as u32);
+        for (o, obj) in scene.objects.iter().enumerate() {
+            let set = &sets[o * m + l];
+            objects[o].start[l] = nodes.len() as u32;
+            objects[o].count[l] = set.len() as u32;
+            objects[o].radius[l] = (d.radius[l] / obj.transform.scale as f64) as f32;
+            nodes.extend(set.iter().map(|c| Node {
+                pos: c.pos.into(),
+                level: l as u32,
+                normal: c.normal.into(),
+                object: o as u32,
+            }));
+        }
+    }
+    level_start.push(nodes.len() as u32);
+    (nodes, level_start, objects)
+}
+
+/// A kd-tree per (object, level), built in place over its disjoint node range, in
+/// parallel; returns the splits.
+fn kd_trees(nodes: &mut [Node], objects: &[ObjectLevels]) -> Vec<KdSplit> {
+    let mut splits = vec![KdSplit::default(); nodes.len()];
+    let mut ranges: Vec<(u32, u32)> = objects
+        .iter()
+        .flat_map(|ol| ol.start.iter().zip(&ol.count).map(|(&s, &c)| (s, c)))
+        .collect();
+    ranges.sort();
+    let mut rest_n: &mut [Node] = nodes;
+    let mut rest_s: &mut [KdSplit] = &mut splits;
+    let mut offset = 0u32;
+    let mut parts = Vec::new();
+    for (start, count) in ranges {
+        let (_, a) = rest_n.split_at_mut((start - offset) as usize);
+        let (_, b) = rest_s.split_at_mut((start - offset) as usize);
+        let (pn, an) = a.split_at_mut(count as usize);
+        let (ps, bs) = b.split_at_mut(count as usize);
+        parts.push((pn, ps));
+        rest_n = an;
+        rest_s = bs;
+        offset = start + count;
+    }
+    parts.into_par_iter().for_each(|(n, s)| kdtree::build(n, s));
+    splits
+}
+
+impl Hierarchy {
+    /// Builds the hierarchy of `scene` for the solver parameters `p`: reachable sides,
+    /// the levels' density, candidate pools, Poisson-disk levels, the level-major node
+    /// array with its kd-trees, support clips, and the parent relations.
+    pub fn build(scene: &Scene, p: &SolverParams, progress: &Progress) -> Result<Hierarchy> {
+        let mut stats = HierarchyStats::default();
+        let t = Instant::now();
+        progress.stage("reachable surfaces");
+        let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
+        stats.seconds_reach = t.elapsed().as_secs_f64();
+        stats.reachable_sides = sides.iter().filter(|&&s| s).count();
+
+        let density = Density::plan(scene, p, &sides)?;
+        stats.reachable_area = density.areas.iter().sum();
+        stats.radius_per_level = density.radius.iter().map(|&r| r as f32).collect();
+
         let t = Instant::now();
         progress.stage("candidate samples");
-        let pools: Vec<Vec<Candidate>> = scene
-            .objects
-            .iter()
-            .enumerate()
-            .map(|(i, o)| {
-                let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
-                let want = (p.candidate_factor as f64 * expected(areas[i], m - 1)).ceil();
-                let count = (want as u64).min(p.max_candidates as u64) as usize;
-                poisson::candidates(
-                    &scene.tris[r.clone()],
-                    &sides[r.start * 2..r.end * 2],
-                    count,
-                    (p.seed as u64) << 32 | i as u64,
-                )
-            })
-            .collect();
+        let pools = candidate_pools(scene, p, &sides, &density);
         stats.seconds_candidates = t.elapsed().as_secs_f64();
 
-        // Poisson-disk levels: independent per (object, level).
         let t = Instant::now();
         progress.stage("Poisson-disk levels");
-        let jobs: Vec<(usize, usize)> = (0..scene.objects.len())
-            .flat_map(|o| (0..m).map(move |l| (o, l)))
-            .collect();
-        let mut pool_sizes = vec![0u64; m];
-        // Crevice test, memoised per candidate across levels: 0 unknown, 1 open, 2 crevice.
-        let memo: Vec<Vec<AtomicU8>> = pools
-            .iter()
-            .map(|p| (0..p.len()).map(|_| AtomicU8::new(0)).collect())
-            .collect();
-        let d_min = (p.crevice_distance as f64 * radius[m - 1]) as f32;
-        let sets: Vec<Vec<Candidate>> = jobs
-            .par_iter()
-            .map(|&(o, l)| {
-                let pool = &pools[o];
-                let want = (p.candidate_factor as f64 * expected(areas[o], l)).ceil() as usize;
-                let n = want.clamp(pool.len().min(64), pool.len());
-                let r = radius[l] / scene.objects[o].transform.scale as f64;
-                let usable = |i: usize| {
-                    if d_min <= 0.0 {
-                        return true;
-                    }
-                    let state = memo[o][i].load(Ordering::Relaxed);
-                    if state != 0 {
-                        return state == 1;
-                    }
-                    let open = !in_crevice(scene, o, &pool[i], d_min, i as u32);
-                    memo[o][i].store(if open { 1 } else { 2 }, Ordering::Relaxed);
-                    open
-                };
-                poisson::dart_throw(&pool[..n], r as f32, usable)
-            })
-            .collect();
-        stats.crevice_candidates_dropped = memo
-            .iter()
-            .map(|m| m.iter().filter(|s| s.load(Ordering::Relaxed) == 2).count())
-            .sum();
-        for &(o, l) in &jobs {
-            let want = (p.candidate_factor as f64 * expected(areas[o], l)).ceil() as u64;
-            pool_sizes[l] += want.clamp(pools[o].len().min(64) as u64, pools[o].len() as u64);
-        }
-        stats.candidates_per_level = pool_sizes;
+        let sets = poisson_levels(scene, p, &density, &pools, &mut stats);
         stats.seconds_poisson = t.elapsed().as_secs_f64();
         drop(pools);
 
-        // Assemble: level-major, then object.
         let t = Instant::now();
         progress.stage("kd-trees");
-        let mut nodes = Vec::new();
-        let mut level_start = Vec::with_capacity(m + 1);
-        let mut objects = vec![
-            ObjectLevels {
-                start: vec![0; m],
-                count: vec![0; m],
-                radius: vec![0.0; m],
-            };
-            scene.objects.len()
-        ];
-        for l in 0..m {
-            level_start.push(nodes.len() as u32);
-            for (o, obj) in scene.objects.iter().enumerate() {
-                let set = &sets[o * m + l];
-                objects[o].start[l] = nodes.len() as u32;
-                objects[o].count[l] = set.len() as u32;
-                objects[o].radius[l] = (radius[l] / obj.transform.scale as f64) as f32;
-                nodes.extend(set.iter().map(|c| Node {
-                    pos: c.pos.into(),
-                    level: l as u32,
-                    normal: c.normal.into(),
-                    object: o as u32,
-                }));
-            }
-        }
-        level_start.push(nodes.len() as u32);
-        drop(sets);
-        let mut splits = vec![KdSplit::default(); nodes.len()];
-        {
-            // Split the arrays into the disjoint (object, level) ranges and build in parallel.
-            let mut ranges: Vec<(u32, u32)> = objects
-                .iter()
-                .flat_map(|ol| (0..m).map(move |l| (ol.start[l], ol.count[l])))
-                .collect();
-            ranges.sort();
-            let mut rest_n: &mut [Node] = &mut nodes;
-            let mut rest_s: &mut [KdSplit] = &mut splits;
-            let mut offset = 0u32;
-            let mut parts = Vec::new();
-            for (start, count) in ranges {
-                let (_, a) = rest_n.split_at_mut((start - offset) as usize);
-                let (_, b) = rest_s.split_at_mut((start - offset) as usize);
-                let (pn, an) = a.split_at_mut(count as usize);
-                let (ps, bs) = b.split_at_mut(count as usize);
-                parts.push((pn, ps));
-                rest_n = an;
-                rest_s = bs;
-                offset = start + count;
-            }
-            parts.into_par_iter().for_each(|(n, s)| kdtree::build(n, s));
-        }
+        let (mut nodes, level_start, objects) = assemble(scene, &density, sets);
+        let splits = kd_trees(&mut nodes, &objects);
         stats.seconds_kdtree = t.elapsed().as_secs_f64();
-        stats.nodes_per_level = (0..m).map(|l| level_start[l + 1] - level_start[l]).collect();
+        stats.nodes_per_level = level_start.windows(2).map(|w| w[1] - w[0]).collect();
 
         let t = Instant::now();
         progress.stage("support clipping");
@@ -597,7 +667,6 @@ impl Hierarchy {
                     tri_offset: o.tri_offset,
                     tri_count: o.tri_count,
                     bvh_offset: o.bvh_root,
-                    cw_root: o.cw_root,
                     ..Default::default()
                 };
                 for l in 0..(self.levels as usize).min(MAX_LEVELS as usize) {

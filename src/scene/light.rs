@@ -181,6 +181,7 @@ impl Fields<'_> {
 }
 
 /// Validates `[[light]]` table number `i` (from 0) and converts it.
+/// Long by design: one block per key of the table, each checked and named in its error.
 pub fn from_table(t: &toml::Table, i: usize, path: &Path) -> Result<GpuLight> {
     let f = Fields { t, i, path };
     let kind = match t.get("type") {

@@ -21,9 +21,9 @@ use crate::geom::bvh;
 use crate::geom::ray::{offset_origin, tri_normal, tri_point};
 use crate::geom::transform::{xform_point, xform_vector, Affine};
 use crate::geom::{Hit, Ray, Transform};
-use crate::layout::{BvhNode, CwNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
+use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
 use crate::limits::{Limits, Part};
-use crate::params::{BvhKind, SolverParams};
+use crate::params::SolverParams;
 
 /// One scene object.
 #[derive(Clone, Debug)]
@@ -37,8 +37,6 @@ pub struct SceneObject {
     pub tri_count: u32,
     /// Root of this object's BVH in [`Scene::bvh`].
     pub bvh_root: u32,
-    /// Root of this object's CWBVH in [`Scene::cw_nodes`] (0 when not built).
-    pub cw_root: u32,
     /// Surface area in object space (one side).
     pub area: f64,
 }
@@ -71,9 +69,6 @@ pub struct Scene {
     /// Per-triangle uvs; empty when no material is textured.
     pub uvs: Vec<TriUv>,
     pub bvh: Vec<BvhNode>,
-    /// CWBVH nodes and their triangle indices (global), when `params.bvh` asks for them.
-    pub cw_nodes: Vec<CwNode>,
-    pub cw_prims: Vec<u32>,
     pub materials: Vec<Material>,
     pub material_names: Vec<String>,
     pub textures: Vec<TextureInfo>,
@@ -81,7 +76,6 @@ pub struct Scene {
     pub srgb: [f32; 256],
     pub lights: Vec<GpuLight>,
     pub camera: Camera,
-    pub params: SolverParams,
     /// World-space bounds and the length of their diagonal (the offset scale).
     pub bounds: (Vec3, Vec3),
     pub scale: f32,
@@ -105,12 +99,16 @@ pub struct Surface {
 impl Scene {
     /// Loads a scene file from disk; `overrides` replace `[solver]` keys. Resource limits
     /// are the defaults ([`Limits::default`]).
-    pub fn load(path: &Path, overrides: &[(String, toml::Value)]) -> Result<Scene> {
+    pub fn load(path: &Path, overrides: &[(String, toml::Value)]) -> Result<(Scene, SolverParams)> {
         Scene::load_with(path, overrides, &Limits::default())
     }
 
     /// [`Scene::load`] within `limits`.
-    pub fn load_with(path: &Path, overrides: &[(String, toml::Value)], limits: &Limits) -> Result<Scene> {
+    pub fn load_with(
+        path: &Path,
+        overrides: &[(String, toml::Value)],
+        limits: &Limits,
+    ) -> Result<(Scene, SolverParams)> {
         let text = crate::limits::read_text(path, crate::limits::MAX_TEXT_BYTES)?;
         let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
         let dir = if dir.as_os_str().is_empty() {
@@ -122,12 +120,15 @@ impl Scene {
     }
 
     /// The Cornell box shipped inside the binary.
-    pub fn embedded_cornell(overrides: &[(String, toml::Value)]) -> Result<Scene> {
+    pub fn embedded_cornell(overrides: &[(String, toml::Value)]) -> Result<(Scene, SolverParams)> {
         Scene::embedded_cornell_with(overrides, &Limits::default())
     }
 
     /// [`Scene::embedded_cornell`] within `limits`.
-    pub fn embedded_cornell_with(overrides: &[(String, toml::Value)], limits: &Limits) -> Result<Scene> {
+    pub fn embedded_cornell_with(
+        overrides: &[(String, toml::Value)],
+        limits: &Limits,
+    ) -> Result<(Scene, SolverParams)> {
         let src = Source::Embedded(source::EMBEDDED_CORNELL);
         let text = src.read(Path::new("cornell_box.toml"))?;
         Scene::from_toml_with(
@@ -140,7 +141,12 @@ impl Scene {
     }
 
     /// Parses and loads a scene whose files come from `source`.
-    pub fn from_toml(text: &str, path: &Path, source: Source, overrides: &[(String, toml::Value)]) -> Result<Scene> {
+    pub fn from_toml(
+        text: &str,
+        path: &Path,
+        source: Source,
+        overrides: &[(String, toml::Value)],
+    ) -> Result<(Scene, SolverParams)> {
         Scene::from_toml_with(text, path, source, overrides, &Limits::default())
     }
 
@@ -151,7 +157,7 @@ impl Scene {
         source: Source,
         overrides: &[(String, toml::Value)],
         limits: &Limits,
-    ) -> Result<Scene> {
+    ) -> Result<(Scene, SolverParams)> {
         let text = crate::limits::strip_bom(text);
         let mut file: config::SceneFile = toml::from_str(text).map_err(|e| Error::SceneSyntax {
             path: path.into(),
@@ -209,7 +215,6 @@ impl Scene {
             file.object.len(),
         )?;
         let mut b = Builder {
-            cwbvh: file.solver.bvh == BvhKind::Cwbvh,
             limits: *limits,
             ..Default::default()
         };
@@ -217,7 +222,8 @@ impl Scene {
         for (i, entry) in file.object.iter().enumerate() {
             b.add_object(&source, path, i, entry)?;
         }
-        b.finish(path, &source, lights, file.camera.as_ref(), file.solver)
+        let scene = b.finish(path, &source, lights, file.camera.as_ref(), &file.solver)?;
+        Ok((scene, file.solver))
     }
 
     /// Closest hit of a world-space ray in `(0, tmax)` over all objects.
@@ -437,58 +443,134 @@ pub fn apply_overrides(params: &SolverParams, overrides: &[(String, toml::Value)
     Ok(p)
 }
 
+/// Object `i`'s transform, each part checked.
+fn object_transform(scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Result<Transform> {
+    let bad = |f: &str, m: String| Error::SceneValue {
+        path: scene_path.into(),
+        key: format!("object[{i}].{f}"),
+        message: m,
+    };
+    let scale = e.scale.unwrap_or(1.0);
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(bad("scale", format!("{scale} must be finite and positive")));
+    }
+    let rotate = Vec3::from(e.rotate.unwrap_or([0.0; 3]));
+    if !rotate.is_finite() {
+        return Err(bad("rotate", format!("{:?} must be finite", rotate.to_array())));
+    }
+    let translate = Vec3::from(e.translate.unwrap_or([0.0; 3]));
+    if !translate.is_finite() {
+        return Err(bad("translate", format!("{:?} must be finite", translate.to_array())));
+    }
+    Ok(Transform {
+        scale,
+        rotate_deg: rotate,
+        translate,
+    })
+}
+
 #[derive(Default)]
 struct Builder {
-    cwbvh: bool,
     limits: Limits,
     objects: Vec<SceneObject>,
     tris: Vec<Tri>,
     uvs: Vec<[f32; 6]>,
     bvh: Vec<BvhNode>,
-    cw_nodes: Vec<CwNode>,
-    cw_prims: Vec<u32>,
     materials: Vec<obj::MtlData>,
     report: LoadReport,
 }
 
 impl Builder {
+    /// Reads object `i`'s mesh, places its triangles, BVH and materials after those
+    /// already added, and records its transform.
     fn add_object(&mut self, source: &Source, scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Result<()> {
-        let key = |f: &str| format!("object[{i}].{f}");
-        let bad = |k: String, m: String| Error::SceneValue {
-            path: scene_path.into(),
-            key: k,
-            message: m,
-        };
-        let scale = e.scale.unwrap_or(1.0);
-        if !(scale.is_finite() && scale > 0.0) {
-            return Err(bad(key("scale"), format!("{scale} must be finite and positive")));
-        }
-        let rotate = Vec3::from(e.rotate.unwrap_or([0.0; 3]));
-        if !rotate.is_finite() {
-            return Err(bad(key("rotate"), format!("{:?} must be finite", rotate.to_array())));
-        }
-        let translate = Vec3::from(e.translate.unwrap_or([0.0; 3]));
-        if !translate.is_finite() {
-            return Err(bad(
-                key("translate"),
-                format!("{:?} must be finite", translate.to_array()),
-            ));
-        }
-        let tess = e.tessellate.unwrap_or(0);
-        if tess > 8 {
-            return Err(bad(
-                key("tessellate"),
-                format!("{tess} is above 8 (65536× the triangles)"),
-            ));
-        }
-        if e.mesh.trim().is_empty() {
-            return Err(bad(key("mesh"), "is empty: give the OBJ file's path".into()));
-        }
+        let transform = object_transform(scene_path, i, e)?;
         let expanded = source::expand_scenes_var(&e.mesh);
         let rel = expanded.as_deref().unwrap_or(Path::new(&e.mesh));
+        let mut mesh = self.read_mesh(source, scene_path, i, e, rel, expanded.as_deref())?;
+        self.report.notes.append(&mut mesh.notes);
+        self.report.inputs.append(&mut mesh.inputs);
+        self.report.duplicate_dropped += mesh.duplicates;
+        self.report.degenerate_dropped += mesh.degenerate;
+        self.report.faces_without_material += mesh.unassigned;
+        let mat_base = self.materials.len() as u32;
+        for t in &mut mesh.tris {
+            t.material += mat_base;
+        }
+        let has_uv = !mesh.uvs.is_empty();
+        let mut uvs = mesh.uvs;
+        let mut nodes = bvh::build(&mut mesh.tris, &mut uvs, &e.mesh)?;
+        let tri_offset = self.tris.len() as u32;
+        let node_offset = self.bvh.len() as u32;
+        bvh::rebase(&mut nodes, node_offset, tri_offset);
+        let area = mesh
+            .tris
+            .iter()
+            .map(|t| {
+                let v0 = Vec3::from(t.v0).as_dvec3();
+                (Vec3::from(t.v1).as_dvec3() - v0)
+                    .cross(Vec3::from(t.v2).as_dvec3() - v0)
+                    .length()
+                    * 0.5
+            })
+            .sum();
+        let name = e.name.clone().unwrap_or_else(|| {
+            rel.file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| format!("object{i}"))
+        });
+        self.objects.push(SceneObject {
+            name,
+            transform,
+            to_world: transform.to_world(),
+            to_object: transform.to_object(),
+            tri_offset,
+            tri_count: mesh.tris.len() as u32,
+            bvh_root: node_offset,
+            area,
+        });
+        let n = mesh.tris.len();
+        self.tris.extend(mesh.tris);
+        if has_uv {
+            self.uvs.resize(tri_offset as usize, [0.0; 6]);
+            self.uvs.extend(uvs);
+        }
+        self.uvs.resize(tri_offset as usize + n, [0.0; 6]);
+        self.bvh.extend(nodes);
+        self.materials.extend(mesh.materials);
+        Ok(())
+    }
+
+    /// Object `i`'s mesh `rel` (`expanded` from `$MESHRAD_SCENES` if it named it), within
+    /// the memory limit, tessellated as asked.
+    fn read_mesh(
+        &self,
+        source: &Source,
+        scene_path: &Path,
+        i: usize,
+        e: &config::ObjectEntry,
+        rel: &Path,
+        expanded: Option<&Path>,
+    ) -> Result<obj::LoadedMesh> {
+        let key = |f: &str| format!("object[{i}].{f}");
+        let tess = e.tessellate.unwrap_or(0);
+        if tess > 8 {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: key("tessellate"),
+                message: format!("{tess} is above 8 (65536× the triangles)"),
+            });
+        }
+        if e.mesh.trim().is_empty() {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: key("mesh"),
+                message: "is empty: give the OBJ file's path".into(),
+            });
+        }
         // The OBJ text, its normalised copy and tobj's arrays: about 4× the file.
         let read_limit = crate::limits::MAX_MESH_BYTES.min(self.limits.max_memory / 4);
-        let mut mesh = obj::load(source, rel, read_limit).map_err(|err| match (&expanded, err) {
+        let mut mesh = obj::load(source, rel, read_limit).map_err(|err| match (expanded, err) {
             (Some(p), Error::Io { path, error }) if !p.exists() => Error::Io {
                 path,
                 error: std::io::Error::new(
@@ -535,69 +617,7 @@ impl Builder {
                 message: "no (non-degenerate) triangles".into(),
             });
         }
-        self.report.notes.append(&mut mesh.notes);
-        self.report.inputs.append(&mut mesh.inputs);
-        self.report.duplicate_dropped += mesh.duplicates;
-        self.report.degenerate_dropped += mesh.degenerate;
-        self.report.faces_without_material += mesh.unassigned;
-        let mat_base = self.materials.len() as u32;
-        for t in &mut mesh.tris {
-            t.material += mat_base;
-        }
-        let has_uv = !mesh.uvs.is_empty();
-        let mut uvs = mesh.uvs;
-        let mut nodes = bvh::build(&mut mesh.tris, &mut uvs, &e.mesh)?;
-        let tri_offset = self.tris.len() as u32;
-        let node_offset = self.bvh.len() as u32;
-        bvh::rebase(&mut nodes, node_offset, tri_offset);
-        let cw_root = self.cw_nodes.len() as u32;
-        if self.cwbvh {
-            let (cw, prims) = bvh::build_cwbvh(&mesh.tris, cw_root, self.cw_prims.len() as u32, tri_offset);
-            self.cw_nodes.extend(cw);
-            self.cw_prims.extend(prims);
-        }
-        let area = mesh
-            .tris
-            .iter()
-            .map(|t| {
-                let v0 = Vec3::from(t.v0).as_dvec3();
-                (Vec3::from(t.v1).as_dvec3() - v0)
-                    .cross(Vec3::from(t.v2).as_dvec3() - v0)
-                    .length()
-                    * 0.5
-            })
-            .sum();
-        let transform = Transform {
-            scale,
-            rotate_deg: rotate,
-            translate,
-        };
-        let name = e.name.clone().unwrap_or_else(|| {
-            rel.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| format!("object{i}"))
-        });
-        self.objects.push(SceneObject {
-            name,
-            transform,
-            to_world: transform.to_world(),
-            to_object: transform.to_object(),
-            tri_offset,
-            tri_count: mesh.tris.len() as u32,
-            bvh_root: node_offset,
-            cw_root,
-            area,
-        });
-        let n = mesh.tris.len();
-        self.tris.extend(mesh.tris);
-        if has_uv {
-            self.uvs.resize(tri_offset as usize, [0.0; 6]);
-            self.uvs.extend(uvs);
-        }
-        self.uvs.resize(tri_offset as usize + n, [0.0; 6]);
-        self.bvh.extend(nodes);
-        self.materials.extend(mesh.materials);
-        Ok(())
+        Ok(mesh)
     }
 
     /// The GPU materials: each MTL material checked (albedo below 1, a texture's mean
@@ -701,7 +721,7 @@ impl Builder {
         source: &Source,
         lights: Vec<GpuLight>,
         camera: Option<&config::CameraEntry>,
-        params: SolverParams,
+        params: &SolverParams,
     ) -> Result<Scene> {
         let srgb = texture::srgb_table();
         let (materials, textures, texels) = self.resolve_materials(source, &srgb)?;
@@ -717,22 +737,14 @@ impl Builder {
         };
         self.report.triangles = self.tris.len();
         self.report.textures = textures.len();
-        self.report.planned_bytes = plan_memory(
-            &self.limits,
-            path,
-            self.tris.len(),
-            &params,
-            &camera,
-            self.objects.len(),
-        )?;
+        self.report.planned_bytes =
+            plan_memory(&self.limits, path, self.tris.len(), params, &camera, self.objects.len())?;
         Ok(Scene {
             path: path.into(),
             objects: self.objects,
             tris: self.tris,
             uvs,
             bvh: self.bvh,
-            cw_nodes: self.cw_nodes,
-            cw_prims: self.cw_prims,
             materials,
             material_names: self.materials.iter().map(|m| m.name.clone()).collect(),
             textures,
@@ -740,7 +752,6 @@ impl Builder {
             srgb,
             lights,
             camera,
-            params,
             bounds: (lo, hi),
             scale,
             report: self.report,

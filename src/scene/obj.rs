@@ -246,6 +246,8 @@ fn finite_numbers(words: &[&str], what: &str) -> std::result::Result<Vec<f32>, S
 /// colours dropped, `vt u` completed to `vt u 0`, point and line elements dropped. Line
 /// numbers are kept (a dropped line stays as an empty one), so every error names the
 /// line of the input. Errors: (line, message).
+/// Long by design: one `match` arm per OBJ statement, each a few lines of checks; split
+/// up, the arms would only move apart from the statement they check.
 pub fn sanitize(text: &str) -> std::result::Result<String, (usize, String)> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
     let mut out = String::with_capacity(text.len());
@@ -437,6 +439,7 @@ fn colour(key: &str, args: &[&str]) -> std::result::Result<[f32; 3], String> {
 /// renderer cannot honour (`-clamp on`, `-mm` other than `0 1`) are errors.
 type MapKd<'a> = (String, [f32; 2], [f32; 2], Vec<&'a str>);
 
+/// Long by design: one `match` arm per `map_Kd` option.
 fn map_options<'a>(args: &[&'a str]) -> std::result::Result<MapKd<'a>, String> {
     let (mut o, mut s) = ([0.0f32; 2], [1.0f32; 2]);
     let mut ignored = Vec::new();

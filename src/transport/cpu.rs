@@ -121,13 +121,13 @@ pub struct CpuBackend<'a> {
 }
 
 impl<'a> CpuBackend<'a> {
-    pub fn new(scene: &'a Scene, h: &'a Hierarchy, progress: &Progress) -> Self {
+    pub fn new(scene: &'a Scene, h: &'a Hierarchy, p: &SolverParams, progress: &Progress) -> Self {
         let n = h.nodes.len();
         CpuBackend {
             scene,
             h,
-            p: scene.params.clone(),
-            halton: halton_table(scene.params.rays),
+            p: p.clone(),
+            halton: halton_table(p.rays),
             direct: vec![Vec4::ZERO; n],
             unshot: vec![Vec4::ZERO; n],
             next: vec![Vec4::ZERO; n],

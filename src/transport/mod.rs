@@ -69,13 +69,34 @@ pub trait Backend {
     fn values(&mut self) -> Result<NodeValues>;
     /// A whole bounce at once, when the backend can do better than stage by stage (the
     /// GPU: one submission, the active sets' sizes never leave the device until the end).
-    /// It must compute exactly what [`bounce`]'s stages compute.
-    fn bounce_fused(&mut self, _k: u32) -> Result<Option<BounceStats>> {
+    /// It must compute exactly what [`bounce`]'s stages compute, gathering every level
+    /// `0..gather_levels()` (an empty level's integrals are 0).
+    fn bounce_fused(&mut self) -> Result<Option<FusedBounce>> {
         Ok(None)
     }
     /// Per-kernel times in seconds (GPU timestamps), if the backend measures them.
     fn kernel_times(&mut self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+}
+
+/// What a fused bounce reports, per gathered level: integrals and refined nodes; and the
+/// energies after it.
+#[derive(Clone, Debug, Default)]
+pub struct FusedBounce {
+    pub integrals: Vec<u32>,
+    pub refined: Vec<u32>,
+    pub energy: Energy,
+}
+
+impl Energy {
+    /// Un-shot energy relative to the direct energy.
+    pub fn ratio(&self) -> f64 {
+        if self.direct > 0.0 {
+            self.unshot / self.direct
+        } else {
+            0.0
+        }
     }
 }
 
@@ -120,8 +141,7 @@ pub struct Solution {
 }
 
 /// Runs the bounce loop of `ALGORITHM.md` §5 on `backend`.
-pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> Result<Solution> {
-    let p = &scene.params;
+pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -> Result<Solution> {
     let mut stats = SolveStats {
         backend: backend.name(),
         variant: p.variant.name().into(),
@@ -180,37 +200,55 @@ pub fn solve(scene: &Scene, backend: &mut dyn Backend, progress: &Progress) -> R
     })
 }
 
-/// One bounce: gather levels `0..G` breadth-first with the oracle between them, fill the
-/// finer levels, accumulate.
-pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<BounceStats> {
-    if let Some(b) = backend.bounce_fused(k)? {
-        return Ok(b);
+impl BounceStats {
+    /// Whether level `l` is empty given the active count the level above left it (no
+    /// node of a level ≥ 2 active: nothing to gather; the level and the finer ones take
+    /// their predictions, exactly what `refine` would give them). Marks where the
+    /// emptiness starts.
+    fn stops_at(&mut self, l: u32, active: u32) -> bool {
+        let empty = l >= 2 && active == 0;
+        if empty {
+            self.empty_from = Some(l);
+        }
+        empty
     }
+}
+
+/// One bounce: gather levels `0..G` breadth-first with the oracle between them, fill the
+/// finer levels, accumulate — stage by stage, or fused where the backend can. Which level
+/// comes next, when a level is empty and the statistics are decided here for both.
+pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<BounceStats> {
     let t = Instant::now();
     let g = p.gather_levels();
     let mut b = BounceStats {
         bounce: k,
         ..Default::default()
     };
-    let mut next_active = u32::MAX;
-    let mut filled_from = g;
-    for l in 0..g {
-        if l >= 2 && next_active == 0 {
-            // No node of this level is active: nothing to gather; the level and the finer
-            // ones take their predictions, exactly what `refine` would give them.
-            b.empty_from = Some(l);
-            filled_from = l;
-            break;
+    let e = if let Some(f) = backend.bounce_fused()? {
+        for l in 0..g {
+            if b.stops_at(l, f.integrals[l as usize]) {
+                break;
+            }
+            b.integrals_per_level.push(f.integrals[l as usize]);
+            b.refined_per_level.push(f.refined[l as usize]);
         }
-        b.integrals_per_level.push(backend.gather(l)?);
-        let r = backend.refine(l, l >= 1 && l + 1 < g)?;
-        b.refined_per_level.push(r.refined);
-        next_active = r.activated;
-    }
-    backend.fill(filled_from)?;
-    let e = backend.end_bounce()?;
+        f.energy
+    } else {
+        let mut next_active = u32::MAX;
+        for l in 0..g {
+            if b.stops_at(l, next_active) {
+                break;
+            }
+            b.integrals_per_level.push(backend.gather(l)?);
+            let r = backend.refine(l, l >= 1 && l + 1 < g)?;
+            b.refined_per_level.push(r.refined);
+            next_active = r.activated;
+        }
+        backend.fill(b.empty_from.unwrap_or(g))?;
+        backend.end_bounce()?
+    };
     b.seconds = t.elapsed().as_secs_f64();
-    b.unshot_ratio = if e.direct > 0.0 { e.unshot / e.direct } else { 0.0 };
+    b.unshot_ratio = e.ratio();
     Ok(b)
 }
 

@@ -6,7 +6,7 @@ pub mod room;
 use std::path::{Path, PathBuf};
 
 use meshrad::progress::Progress;
-use meshrad::{Hierarchy, Scene, Solution};
+use meshrad::{Hierarchy, Scene, Solution, SolverParams};
 
 /// A fresh temporary directory that lives as long as the returned guard.
 pub fn tmpdir() -> tempfile::TempDir {
@@ -14,7 +14,7 @@ pub fn tmpdir() -> tempfile::TempDir {
 }
 
 /// Loads a scene file with `[solver]` overrides given as `key=value` TOML snippets.
-pub fn load(path: &Path, overrides: &[(&str, &str)]) -> Scene {
+pub fn load(path: &Path, overrides: &[(&str, &str)]) -> (Scene, SolverParams) {
     let o: Vec<(String, toml::Value)> = overrides
         .iter()
         .map(|(k, v)| {
@@ -26,8 +26,8 @@ pub fn load(path: &Path, overrides: &[(&str, &str)]) -> Scene {
 }
 
 /// Hierarchy and CPU solution of a scene.
-pub fn solve_cpu(scene: &Scene) -> (Hierarchy, Solution) {
-    let r = meshrad::solve(scene, None, &Progress::hidden()).expect("solve");
+pub fn solve_cpu(scene: &Scene, params: &SolverParams) -> (Hierarchy, Solution) {
+    let r = meshrad::solve(scene, params, None, &Progress::hidden()).expect("solve");
     (r.hierarchy, r.solution)
 }
 

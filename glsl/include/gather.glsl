@@ -1,0 +1,34 @@
+// The push constants of one gathering batch, shared by its four kernels (hemisphere,
+// trace, reconstruct, reduce): src/gpu/kernels/gather.rs `GatherPush`.
+#ifndef GATHER_GLSL
+#define GATHER_GLSL
+
+#include "layout.glsl"
+
+layout(push_constant) uniform GatherPush {
+    GlobalsRef g;
+    uint first;       // first node (global index) of the level
+    uint count;       // integrals in this batch (for a device-sized batch: at most)
+    uint batch_first; // first integral of this batch within the level's integrals
+    uint from_list;   // 1: integral i is node active_list[batch_first + i]; 0: node first + batch_first + i
+    uint count_slot;  // NONE, or the counter holding the level's active count (device-sized batches)
+    uint pad0;
+} pc;
+
+// Integrals in this batch: `count`, or, for a device-sized batch, what the level's
+// active count (a counter written on the device) leaves from `batch_first`, at most
+// `count`.
+uint batch_count() {
+    if (pc.count_slot == NONE) {
+        return pc.count;
+    }
+    uint total = pc.g.counters.v[pc.count_slot];
+    return total > pc.batch_first ? min(total - pc.batch_first, pc.count) : 0u;
+}
+
+// The node of integral i of this batch.
+uint integral_node(GlobalsRef g, uint i) {
+    return pc.from_list == 1u ? g.active_list.v[pc.batch_first + i] : pc.first + pc.batch_first + i;
+}
+
+#endif

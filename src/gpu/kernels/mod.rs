@@ -1,0 +1,207 @@
+//! The transport's kernels: one wrapper per GLSL kernel, `glsl/<name>.comp` ↔
+//! `src/gpu/kernels/<name>.rs` ↔ field `Kernels::<name>` ↔ timing label and bench id
+//! `<name>`. Each wrapper owns its push-constant struct (mirrored by name in its GLSL
+//! file, checked member by member by `tests/layout.rs`), sizes its own dispatch, and
+//! records through a [`Recorder`]; the order of the recordings is `super::schedule`'s.
+
+pub mod accumulate;
+pub mod batches;
+pub mod compact;
+pub mod delta;
+pub mod direct;
+pub mod energy;
+pub mod gather;
+pub mod hemisphere;
+pub mod oracle;
+pub mod pulldown;
+pub mod reconstruct;
+pub mod reduce;
+pub mod trace;
+
+use std::sync::Arc;
+
+use ash::vk;
+use bytemuck::Pod;
+
+use super::buffer::{compute_barrier, host_barrier, indirect_barrier, Buffer};
+use super::context::Context;
+use super::pipeline::{Kernel, Specialization};
+use super::profiler::Profiler;
+use crate::constants::{LINEAR_GROUP, VARIANT_ORIGINAL};
+use crate::error::Result;
+
+/// One command buffer being recorded: where dispatches, fills, copies and barriers go,
+/// each dispatch timed under its kernel's name.
+pub struct Recorder<'a> {
+    pub ctx: &'a Context,
+    pub prof: &'a mut Profiler,
+    pub cmd: vk::CommandBuffer,
+    /// Device address of the solve's `Globals` block (every push struct's first field).
+    pub globals: u64,
+}
+
+impl Recorder<'_> {
+    /// Records `groups` workgroups of `kernel` with push constants `push`.
+    pub fn dispatch<T: Pod>(&mut self, kernel: &Kernel, push: &T, groups: u64) {
+        let cmd = self.cmd;
+        self.prof.time(cmd, kernel.name, || kernel.dispatch(cmd, push, groups));
+    }
+
+    /// Records a dispatch of `kernel` whose grid the device wrote at byte `offset` of `args`.
+    pub fn dispatch_indirect<T: Pod>(&mut self, kernel: &Kernel, push: &T, args: &Buffer, offset: u64) {
+        let cmd = self.cmd;
+        self.prof.time(cmd, kernel.name, || {
+            kernel.dispatch_indirect(cmd, push, args.buffer, offset)
+        });
+    }
+
+    /// Fills `size` bytes of `buffer` from byte `offset` with the word `value`.
+    pub fn fill(&self, buffer: &Buffer, offset: u64, size: u64, value: u32) {
+        buffer.fill(self.cmd, offset, size, value);
+    }
+
+    /// Copies byte regions of `src` into `dst`.
+    pub fn copy(&self, src: &Buffer, dst: &Buffer, regions: &[vk::BufferCopy]) {
+        // SAFETY: recording state; callers give regions within both buffers.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_copy_buffer(self.cmd, src.buffer, dst.buffer, regions)
+        };
+    }
+
+    /// Between two dependent dispatches (or a fill or copy and a dispatch).
+    pub fn barrier(&self) {
+        compute_barrier(self.ctx, self.cmd);
+    }
+
+    /// After a dispatch that wrote indirect dispatch arguments.
+    pub fn indirect_barrier(&self) {
+        indirect_barrier(self.ctx, self.cmd);
+    }
+
+    /// After copies that the host reads once the submission completed.
+    pub fn host_barrier(&self) {
+        host_barrier(self.ctx, self.cmd);
+    }
+}
+
+/// Workgroups for one thread per element.
+pub fn per_element(count: u64) -> u64 {
+    count.div_ceil(LINEAR_GROUP as u64)
+}
+
+/// The wrapper type of one kernel: `$ty($name)` built from `shaders::$spv` with push
+/// struct `$push`.
+macro_rules! kernel {
+    ($ty:ident, $name:literal, $spv:ident, $push:ty) => {
+        /// The compute pipeline of the kernel of the same name.
+        pub struct $ty(pub(crate) $crate::gpu::pipeline::Kernel);
+
+        impl $ty {
+            /// The kernel's name: its GLSL file, timing label and bench id.
+            pub const NAME: &'static str = $name;
+
+            /// Builds the pipeline for this specialization.
+            pub fn new(
+                ctx: &std::sync::Arc<$crate::gpu::context::Context>,
+                spec: $crate::gpu::pipeline::Specialization,
+            ) -> $crate::error::Result<$ty> {
+                $crate::gpu::pipeline::Kernel::new(
+                    ctx,
+                    $name,
+                    $crate::gpu::shaders::$spv,
+                    spec,
+                    std::mem::size_of::<$push>() as u32,
+                )
+                .map($ty)
+            }
+        }
+    };
+}
+pub(crate) use kernel;
+
+/// Every compute pipeline of the transport, built once per solve.
+pub struct Kernels {
+    pub direct: direct::Direct,
+    pub hemisphere: hemisphere::Hemisphere,
+    pub trace: trace::Trace,
+    pub reconstruct: reconstruct::Reconstruct,
+    pub reduce: reduce::Reduce,
+    /// Built only for the absolute hierarchy.
+    pub pulldown: Option<pulldown::Pulldown>,
+    /// Built only for the delta hierarchy.
+    pub delta: Option<delta::Delta>,
+    pub oracle: oracle::Oracle,
+    pub compact: compact::Compact,
+    pub accumulate: accumulate::Accumulate,
+    pub energy: energy::Energy,
+    pub batches: batches::Batches,
+}
+
+impl Kernels {
+    /// Builds the pipelines a solve of this specialization dispatches.
+    pub fn new(ctx: &Arc<Context>, spec: Specialization) -> Result<Kernels> {
+        let delta = spec.variant == VARIANT_ORIGINAL;
+        Ok(Kernels {
+            direct: direct::Direct::new(ctx, spec)?,
+            hemisphere: hemisphere::Hemisphere::new(ctx, spec)?,
+            trace: trace::Trace::new(ctx, spec)?,
+            reconstruct: reconstruct::Reconstruct::new(ctx, spec)?,
+            reduce: reduce::Reduce::new(ctx, spec)?,
+            pulldown: (!delta).then(|| pulldown::Pulldown::new(ctx, spec)).transpose()?,
+            delta: delta.then(|| delta::Delta::new(ctx, spec)).transpose()?,
+            oracle: oracle::Oracle::new(ctx, spec)?,
+            compact: compact::Compact::new(ctx, spec)?,
+            accumulate: accumulate::Accumulate::new(ctx, spec)?,
+            energy: energy::Energy::new(ctx, spec)?,
+            batches: batches::Batches::new(ctx, spec)?,
+        })
+    }
+
+    /// The names of the pipelines that were built.
+    pub fn built(&self) -> Vec<&'static str> {
+        let mut v = vec![
+            direct::Direct::NAME,
+            hemisphere::Hemisphere::NAME,
+            trace::Trace::NAME,
+            reconstruct::Reconstruct::NAME,
+            reduce::Reduce::NAME,
+            oracle::Oracle::NAME,
+            compact::Compact::NAME,
+            accumulate::Accumulate::NAME,
+            energy::Energy::NAME,
+            batches::Batches::NAME,
+        ];
+        v.extend(self.pulldown.as_ref().map(|_| pulldown::Pulldown::NAME));
+        v.extend(self.delta.as_ref().map(|_| delta::Delta::NAME));
+        v
+    }
+}
+
+/// Every wrapper's name, for the check that each GLSL kernel has one.
+pub const NAMES: &[&str] = &[
+    accumulate::Accumulate::NAME,
+    batches::Batches::NAME,
+    compact::Compact::NAME,
+    delta::Delta::NAME,
+    direct::Direct::NAME,
+    energy::Energy::NAME,
+    hemisphere::Hemisphere::NAME,
+    oracle::Oracle::NAME,
+    pulldown::Pulldown::NAME,
+    reconstruct::Reconstruct::NAME,
+    reduce::Reduce::NAME,
+    trace::Trace::NAME,
+];
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn every_glsl_kernel_has_a_wrapper() {
+        let glsl: Vec<&str> = crate::gpu::shaders::ALL.iter().map(|(n, _)| *n).collect();
+        let mut ours = super::NAMES.to_vec();
+        ours.sort();
+        assert_eq!(glsl, ours);
+    }
+}

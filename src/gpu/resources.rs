@@ -1,0 +1,301 @@
+//! Every device buffer of a solve, by name: the scene and hierarchy (uploaded once), the
+//! per-node state (resident for the whole solve) and the per-batch buffers (rays, hits,
+//! samples: they never leave the device). `Globals` is written from these names.
+
+use std::sync::Arc;
+
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::context::Context;
+use super::globals::{Globals, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
+use crate::constants::{COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_SLOTS, LIGHT_COUNTERS, MAX_LEVELS};
+use crate::error::Result;
+use crate::geom::bvh;
+use crate::geom::sampling::halton_table;
+use crate::hierarchy::Hierarchy;
+use crate::layout::CwNode;
+use crate::params::{BvhKind, SolverParams};
+use crate::scene::Scene;
+
+/// The scene and the hierarchy, uploaded once, read-only on the device.
+pub struct SceneBuffers {
+    pub tris: Buffer,
+    pub uvs: Buffer,
+    pub bvh: Buffer,
+    pub cw_nodes: Buffer,
+    pub cw_prims: Buffer,
+    pub materials: Buffer,
+    pub textures: Buffer,
+    pub texels: Buffer,
+    pub srgb: Buffer,
+    pub lights: Buffer,
+    pub objects: Buffer,
+    pub nodes: Buffer,
+    pub splits: Buffer,
+    pub clips: Buffer,
+    pub parent_offset: Buffer,
+    pub parents: Buffer,
+    pub child_offset: Buffer,
+    pub children: Buffer,
+    pub halton: Buffer,
+}
+
+/// The compressed wide BVH of every object, for `bvh = "cwbvh"`: built here, by the GPU
+/// backend, from the scene's triangles (each object's already in its BVH2's order).
+#[derive(Default)]
+pub struct Cwbvh {
+    pub nodes: Vec<CwNode>,
+    /// Global triangle indices of the leaves.
+    pub prims: Vec<u32>,
+    /// Each object's root in `nodes`.
+    pub roots: Vec<u32>,
+}
+
+impl Cwbvh {
+    /// The CWBVH if `p` asks for it; else none (every root 0, nothing uploaded).
+    pub fn build(scene: &Scene, p: &SolverParams) -> Cwbvh {
+        let mut cw = Cwbvh::default();
+        for o in &scene.objects {
+            let root = cw.nodes.len() as u32;
+            cw.roots.push(root);
+            if p.bvh == BvhKind::Cwbvh {
+                let tris = &scene.tris[o.tri_offset as usize..][..o.tri_count as usize];
+                let (nodes, prims) = bvh::build_cwbvh(tris, root, cw.prims.len() as u32, o.tri_offset);
+                cw.nodes.extend(nodes);
+                cw.prims.extend(prims);
+            }
+        }
+        cw
+    }
+}
+
+impl SceneBuffers {
+    fn upload(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams, cw: &Cwbvh) -> Result<SceneBuffers> {
+        let mut objects = h.object_infos(scene);
+        for (info, &root) in objects.iter_mut().zip(&cw.roots) {
+            info.cw_root = root;
+        }
+        Ok(SceneBuffers {
+            tris: Buffer::upload(ctx, "triangles", &scene.tris[..])?,
+            uvs: Buffer::upload(ctx, "uvs", &scene.uvs[..])?,
+            bvh: Buffer::upload(ctx, "bvh", &scene.bvh[..])?,
+            cw_nodes: Buffer::upload(ctx, "cwbvh nodes", &cw.nodes[..])?,
+            cw_prims: Buffer::upload(ctx, "cwbvh primitives", &cw.prims[..])?,
+            materials: Buffer::upload(ctx, "materials", &scene.materials[..])?,
+            textures: Buffer::upload(ctx, "textures", &scene.textures[..])?,
+            texels: Buffer::upload(ctx, "texels", &scene.texels[..])?,
+            srgb: Buffer::upload(ctx, "srgb", &scene.srgb[..])?,
+            lights: Buffer::upload(ctx, "lights", &scene.lights[..])?,
+            objects: Buffer::upload(ctx, "objects", &objects[..])?,
+            nodes: Buffer::upload(ctx, "nodes", &h.nodes[..])?,
+            splits: Buffer::upload(ctx, "kd splits", &h.splits[..])?,
+            clips: Buffer::upload(ctx, "support clips", &h.clips[..])?,
+            parent_offset: Buffer::upload(ctx, "parent offsets", &h.parent_offset[..])?,
+            parents: Buffer::upload(ctx, "parents", &h.parents[..])?,
+            child_offset: Buffer::upload(ctx, "child offsets", &h.child_offset[..])?,
+            children: Buffer::upload(ctx, "children", &h.children[..])?,
+            halton: Buffer::upload(ctx, "halton", &halton_table(p.rays)[..])?,
+        })
+    }
+
+    /// Bytes uploaded.
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.tris,
+            &self.uvs,
+            &self.bvh,
+            &self.cw_nodes,
+            &self.cw_prims,
+            &self.materials,
+            &self.textures,
+            &self.texels,
+            &self.srgb,
+            &self.lights,
+            &self.objects,
+            &self.nodes,
+            &self.splits,
+            &self.clips,
+            &self.parent_offset,
+            &self.parents,
+            &self.child_offset,
+            &self.children,
+            &self.halton,
+        ]
+        .iter()
+        .map(|b| b.size)
+        .sum()
+    }
+}
+
+/// Per-node state, resident for the whole solve (vec4 per node unless noted).
+pub struct NodeState {
+    pub direct: Buffer,
+    pub unshot: Buffer,
+    pub next: Buffer,
+    pub indirect: Buffer,
+    pub pred: Buffer,
+    pub gathered_mean: Buffer,
+    pub gathered_err: Buffer,
+    /// u32 per node: gathered in this bounce.
+    pub active_flag: Buffer,
+    /// u32 per node: activated by a refined parent.
+    pub child_flag: Buffer,
+    /// u32 per node of the largest level: the active set being gathered.
+    pub active_list: Buffer,
+    /// u32 slots `COUNTER*` / `LIGHT_COUNTERS` (`crate::constants`).
+    pub counters: Buffer,
+    /// f32 slots `ENERGY_*` (`crate::constants`).
+    pub energy: Buffer,
+}
+
+/// The buffers of the batches in flight; they never leave the device.
+pub struct BatchBuffers {
+    pub rays: Buffer,
+    pub hits: Buffer,
+    pub samples: Buffer,
+    /// u32 slots `DISPATCH_*` per batch of a device-sized level (`crate::constants`).
+    pub dispatch_args: Buffer,
+}
+
+/// Every buffer of a solve.
+pub struct Resources {
+    pub scene: SceneBuffers,
+    pub state: NodeState,
+    pub batch: BatchBuffers,
+    /// What a fused bounce reads back: the level counters, then the energy sums.
+    pub readback: Buffer,
+    /// The `Globals` block.
+    pub globals: Buffer,
+}
+
+/// Bytes of the level counters a bounce reads back.
+pub const LEVEL_COUNTER_BYTES: u64 = 4 * (COUNTERS_PER_LEVEL * MAX_LEVELS) as u64;
+/// Bytes of the energy sums a bounce reads back (un-shot and direct).
+pub const ENERGY_READ_BYTES: u64 = 8;
+
+fn vec4_bytes(n: usize) -> u64 {
+    (n * 16) as u64
+}
+
+impl Resources {
+    /// Uploads the scene, its CWBVH `cw` and the hierarchy, and allocates the state for
+    /// `batch` integrals in flight.
+    pub fn new(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        h: &Hierarchy,
+        p: &SolverParams,
+        cw: &Cwbvh,
+        batch: u32,
+    ) -> Result<Resources> {
+        let n = h.nodes.len();
+        let largest_level = (0..h.levels as usize)
+            .map(|l| h.level_range(l).len())
+            .max()
+            .unwrap_or(0);
+        let z = |name: &str, size: u64| Buffer::zeroed(ctx, name, size);
+        let device = |name: &str, size: u64| Buffer::new(ctx, name, size, MemoryLocation::GpuOnly);
+        let sc = SceneBuffers::upload(ctx, scene, h, p, cw)?;
+        let state = NodeState {
+            direct: z("direct", vec4_bytes(n))?,
+            unshot: z("unshot", vec4_bytes(n))?,
+            next: z("next", vec4_bytes(n))?,
+            indirect: z("indirect", vec4_bytes(n))?,
+            pred: z("pred", vec4_bytes(n))?,
+            gathered_mean: z("gathered mean", vec4_bytes(n))?,
+            gathered_err: z("gathered error", vec4_bytes(n))?,
+            active_flag: z("active flags", (n * 4) as u64)?,
+            child_flag: z("child flags", (n * 4) as u64)?,
+            active_list: z("active", (largest_level.max(1) * 4) as u64)?,
+            counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.lights.len() as u64))?,
+            energy: z("energy", 4 * ENERGY_SLOTS as u64)?,
+        };
+        let rays_in_flight = batch as u64 * p.rays as u64;
+        let batches = largest_level.div_ceil(batch as usize) as u64 + 1;
+        let bb = BatchBuffers {
+            rays: device("rays", rays_in_flight * RAY_BYTES)?,
+            hits: device("hits", rays_in_flight * HIT_BYTES)?,
+            samples: device("samples", rays_in_flight * CONTRIB_BYTES)?,
+            dispatch_args: z("dispatch arguments", 4 * DISPATCH_PER_BATCH as u64 * batches)?,
+        };
+        let readback = Buffer::new(
+            ctx,
+            "bounce readback",
+            LEVEL_COUNTER_BYTES + ENERGY_READ_BYTES,
+            MemoryLocation::GpuToCpu,
+        )?;
+        let g = globals(&sc, &state, &bb, scene, h, p);
+        Ok(Resources {
+            globals: Buffer::upload(ctx, "globals", bytemuck::bytes_of(&g))?,
+            scene: sc,
+            state,
+            batch: bb,
+            readback,
+        })
+    }
+}
+
+/// The `Globals` block: every buffer's address and the solve's scalars.
+/// The support scale κ and the weight exponent α are the hierarchy's (its clip planes were
+/// built with them), not read again from `p`.
+fn globals(
+    s: &SceneBuffers,
+    st: &NodeState,
+    b: &BatchBuffers,
+    scene: &Scene,
+    h: &Hierarchy,
+    p: &SolverParams,
+) -> Globals {
+    Globals {
+        tris: s.tris.address,
+        uvs: s.uvs.address,
+        bvh: s.bvh.address,
+        cw_nodes: s.cw_nodes.address,
+        cw_prims: s.cw_prims.address,
+        materials: s.materials.address,
+        textures: s.textures.address,
+        texels: s.texels.address,
+        srgb: s.srgb.address,
+        lights: s.lights.address,
+        objects: s.objects.address,
+        nodes: s.nodes.address,
+        splits: s.splits.address,
+        clips: s.clips.address,
+        parent_offset: s.parent_offset.address,
+        parents: s.parents.address,
+        child_offset: s.child_offset.address,
+        children: s.children.address,
+        halton: s.halton.address,
+        direct: st.direct.address,
+        unshot: st.unshot.address,
+        next: st.next.address,
+        indirect: st.indirect.address,
+        pred: st.pred.address,
+        gathered_mean: st.gathered_mean.address,
+        gathered_err: st.gathered_err.address,
+        active_flag: st.active_flag.address,
+        child_flag: st.child_flag.address,
+        active_list: st.active_list.address,
+        counters: st.counters.address,
+        rays: b.rays.address,
+        hits: b.hits.address,
+        contrib: b.samples.address,
+        energy: st.energy.address,
+        dispatch_args: b.dispatch_args.address,
+        num_objects: scene.objects.len() as u32,
+        num_lights: scene.lights.len() as u32,
+        rays_per_integral: p.rays,
+        seed: p.seed,
+        scene_scale: scene.scale,
+        kappa: h.kappa,
+        alpha: h.alpha,
+        approx_cos: p.approx_cos,
+        eps_rel: p.eps_rel,
+        eps_abs: p.eps_abs,
+        noise_z: p.noise_z,
+        levels: h.levels,
+        sender_level: p.sender_level,
+        pad0: 0,
+    }
+}
