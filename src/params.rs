@@ -58,7 +58,8 @@ pub struct SolverParams {
     pub coarsest: u32,
     /// Rays per gathering integral `N`.
     pub rays: u32,
-    /// Bounces `K` of indirect light.
+    /// The most bounces `K` of indirect light; the loop stops earlier once the un-shot
+    /// energy falls below `stop_threshold`.
     pub bounces: u32,
     /// Hierarchy variant and reconstruction.
     pub variant: Variant,
@@ -83,7 +84,8 @@ pub struct SolverParams {
     pub noise_z: f32,
     /// Approximate reconstruction: accept a leaf when `n · n_j > approx_cos`.
     pub approx_cos: f32,
-    /// Stop when a bounce's un-shot energy falls below this fraction of the direct energy.
+    /// Stop when a bounce's un-shot energy falls below this fraction of the direct energy
+    /// (about the fraction of the indirect light that the remaining bounces would add).
     pub stop_threshold: f32,
     /// Candidate pool per level, as a multiple of the level's expected node count.
     pub candidate_factor: f32,
@@ -109,7 +111,7 @@ impl Default for SolverParams {
             levels: 6,
             coarsest: 226,
             rays: 512,
-            bounces: 6,
+            bounces: 100,
             variant: Variant::Approx,
             seed: 0,
             sender_level: 4,
@@ -121,7 +123,7 @@ impl Default for SolverParams {
             eps_abs: 0.01,
             noise_z: 2.0,
             approx_cos: 0.5,
-            stop_threshold: 1e-4,
+            stop_threshold: 1e-3,
             candidate_factor: 8.0,
             max_candidates: 8_000_000,
             reach_paths: 1 << 17,

@@ -97,16 +97,32 @@ fn accuracy_quick() {
     );
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("time to 5 %") && text.contains("path tracing"), "{text}");
+    assert!(
+        text.contains("rel-RMS (area, converged)") && text.contains("median e/r"),
+        "{text}"
+    );
     let csv = std::fs::read_to_string(dir.path().join("a/accuracy.csv")).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
-    // 3 variants × 2 ray counts × 2 backends + 2 path-tracing points.
-    assert_eq!(lines.len(), 1 + 12 + 2, "{csv}");
+    // (the defaults + 3 variants × 2 ray counts) × 2 backends + 2 path-tracing points.
+    assert_eq!(lines.len(), 1 + 14 + 2, "{csv}");
+    // The bias figures are computed: at the defaults the typical point gets a sane share
+    // of its light (the 2-bounce solve against the converged reference loses some).
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for l in lines.iter().filter(|l| l.contains(",defaults,")) {
+        let f: Vec<&str> = l.split(',').collect();
+        let median: f64 = f[col("median_ratio")].parse().unwrap();
+        let energy: f64 = f[col("energy_ratio")].parse().unwrap();
+        assert!((0.5..1.2).contains(&median) && (0.5..1.2).contains(&energy), "{l}");
+    }
     assert!(lines.iter().any(|l| l.ends_with(",true")), "a Pareto front");
     let png = image::open(dir.path().join("a/cornell.png")).unwrap();
     assert!(png.width() > 500);
     // The cached reference is reused on a second run.
-    let cached = std::fs::read_to_string(dir.path().join("a/cornell-reference.csv")).unwrap();
-    assert!(cached.starts_with("# meshrad reference samples=2000"));
+    let cached = std::fs::read_to_string(dir.path().join("a/cornell-area-converged-reference.csv")).unwrap();
+    assert!(cached.starts_with("# meshrad reference samples=2000 max_bounces=0"));
+    let cached = std::fs::read_to_string(dir.path().join("a/cornell-camera-2-bounces-reference.csv")).unwrap();
+    assert!(cached.starts_with("# meshrad reference samples=2000 max_bounces=2"));
 }
 
 #[test]
@@ -142,6 +158,8 @@ fn reference_command() {
             "--camera",
             "--samples",
             "4",
+            "--max-bounces",
+            "6",
             "--out",
             "img",
             "-q",
@@ -158,4 +176,29 @@ fn reference_command() {
     let want = 0.5 / std::f32::consts::PI * meshrad::analytic::furnace_expected(1.0, 0.5, 1.0, 6).1 as f32;
     let mean = exr.layer_data.channel_data.pixels.iter().sum::<f32>() / 1024.0;
     assert!((mean - want).abs() < 0.03 * want, "{mean} vs {want}");
+}
+
+/// Area-uniform probe points on a closed sphere lit from inside: every point on the
+/// sphere, on its inner side (the outer one cannot receive light), and spread by area
+/// (half of them in the upper hemisphere, within 4 standard deviations).
+#[test]
+fn area_probes_cover_the_surfaces_that_receive_light_uniformly() {
+    let dir = common::tmpdir();
+    let path = meshrad::analytic::furnace(dir.path(), 1.0, 3, 0.5, [0.2, 0.1, -0.3], 1.0, "").unwrap();
+    let (scene, _) = common::load(&path, &[]);
+    let n = 400;
+    let probes = meshrad::bench::area_probes(&scene, n, 7);
+    assert_eq!(probes.len(), n);
+    let mut upper = 0;
+    for q in &probes {
+        let r = q.p.length();
+        assert!((0.95..=1.0001).contains(&r), "point {} off the sphere", q.p);
+        assert!(q.n.dot(q.p) < 0.0, "point {} on the outer side", q.p);
+        upper += (q.p.y > 0.0) as usize;
+    }
+    let sigma = (n as f64 * 0.25).sqrt();
+    assert!(
+        (upper as f64 - n as f64 / 2.0).abs() < 4.0 * sigma,
+        "{upper} of {n} in the upper half"
+    );
 }

@@ -9,7 +9,7 @@ use meshrad::hierarchy::{poisson, Hierarchy};
 use meshrad::progress::Progress;
 use meshrad::scene::reach;
 use meshrad::transport::reconstruct;
-use meshrad::{Scene, SolverParams};
+use meshrad::{Scene, SolverParams, Variant};
 
 fn cornell(levels: u32) -> (Scene, SolverParams) {
     let (s, mut p) = Scene::embedded_cornell(&[]).unwrap();
@@ -164,4 +164,44 @@ fn same_seed_same_everything() {
         Hierarchy::build(&s, &p, &Progress::hidden()).unwrap().nodes
     };
     assert!(a.0 != c, "another seed gives other nodes");
+}
+
+/// Every gathering ray that hits a surface light can reach gets a value: of the first
+/// bounce's light that the level-0 integrals see, almost none falls on points the sender
+/// level does not cover (`transport::coverage`). Fails when holes come back: surfaces
+/// without nodes, or a normal test or clip plane that rejects every basis function there.
+/// The same measure must see the loss when the sender reads a level that is too sparse
+/// for the approximate reconstruction's normal test.
+#[test]
+fn gathered_light_finds_a_value_at_every_hit() {
+    for variant in [Variant::Approx, Variant::Modified, Variant::Original] {
+        let (s, mut p) = Scene::embedded_cornell(&[]).unwrap();
+        p.variant = variant;
+        p.rays = 128;
+        let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
+        let c = meshrad::transport::coverage::first_bounce(&s, &h, &p);
+        println!("COVERAGE {variant:?}: {c:?}");
+        assert!(c.rays > 20_000, "{c:?}");
+        assert!(c.no_value_receiving * 1000 <= c.rays, "{variant:?}: {c:?}");
+        assert!(
+            c.light_lost < 1e-3,
+            "{variant:?}: {:.3} % of the first bounce's light lost",
+            100.0 * c.light_lost
+        );
+    }
+    // The measure sees a loss: clip planes that cut every support on both sides of the
+    // node (u = ±x in its tangent frame, at distance 0, in all 8 directions) leave every
+    // hit without a value.
+    let (s, mut p) = Scene::embedded_cornell(&[]).unwrap();
+    p.rays = 128;
+    let mut h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
+    let mut clip = [0u8; 16];
+    clip[0..2].copy_from_slice(&i16::MAX.to_le_bytes());
+    clip[8..10].copy_from_slice(&(-i16::MAX).to_le_bytes());
+    clip[6] = 0xff;
+    clip[14] = 0xff;
+    h.clips.iter_mut().for_each(|c| *c = clip);
+    let c = meshrad::transport::coverage::first_bounce(&s, &h, &p);
+    println!("COVERAGE every support clipped away: {c:?}");
+    assert!(c.light_lost > 0.99 && c.no_value_receiving > 10_000, "{c:?}");
 }

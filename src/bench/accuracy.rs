@@ -1,6 +1,8 @@
-//! `meshrad bench accuracy`: run time against error. For each scene, probe points on the
-//! lit surfaces get a Monte Carlo reference (cut after the scene's bounces, like the
-//! solver); then solver configurations are swept — variant × rays per integral, and one
+//! `meshrad bench accuracy`: run time against error. For each scene, points drawn
+//! uniformly by area over every surface that can receive light get a converged Monte Carlo
+//! reference (the unbounded series, Russian roulette): the primary error, with its bias
+//! figures. Camera-visible points against a reference cut at the solver's bounces (what
+//! this benchmark measured before) are a second view. Then solver configurations are swept — variant × rays per integral, and one
 //! parameter at a time around the scene's defaults (coarsest count, levels, gather
 //! levels, sender level, oracle threshold) — on each backend, and brute-force path
 //! tracing at increasing sample counts gives the baseline. Output: a CSV, a PNG plot of
@@ -14,7 +16,7 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 
-use super::{measure, probes_for, reference_at};
+use super::{area_probes, camera_probes, measure, reference_at};
 use crate::error::{Error, Result};
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
@@ -24,6 +26,7 @@ use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
 use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
+use crate::transport::coverage::{self, Coverage};
 
 /// Options of a sweep.
 #[derive(Clone, Debug)]
@@ -34,6 +37,8 @@ pub struct AccuracyOptions {
     pub pathtrace_samples: Vec<u32>,
     /// A reduced sweep (CI).
     pub quick: bool,
+    /// Only the scene's defaults (and the path-tracing baseline, if any).
+    pub defaults_only: bool,
 }
 
 /// One measured point of the plot.
@@ -57,7 +62,13 @@ pub struct Row {
     pub seconds_hierarchy: f64,
     pub integrals: u64,
     pub rays_traced: u64,
+    /// At area-uniform points against the converged reference.
     pub error: ErrorStats,
+    /// At camera-visible points against the reference cut at the solver's bounces (none
+    /// for path tracing).
+    pub error_camera: ErrorStats,
+    /// At the scene's defaults: the first bounce's light lost to hits without a value.
+    pub coverage: Option<Coverage>,
     pub pareto: bool,
 }
 
@@ -65,7 +76,8 @@ pub struct Row {
 ///
 /// Long by design: the list of configurations, one short block each.
 pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverParams)> {
-    let mut out = Vec::new();
+    // The scene's own settings first: the point a user gets without flags.
+    let mut out = vec![("defaults".to_string(), base.clone())];
     let with = |label: String, f: &dyn Fn(&mut SolverParams)| {
         let mut p = base.clone();
         f(&mut p);
@@ -180,23 +192,66 @@ pub fn sweep(
     progress: &Progress,
 ) -> Result<Vec<Row>> {
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))?;
-    let probes = probes_for(scene, opts.probes, 0xacc);
-    let ref_opts = ReferenceOptions {
-        samples: opts.reference_samples,
-        max_bounces: base.bounces,
-        ..Default::default()
-    };
-    let (reference, _) = reference_at(
+    let area = Points::new(
         scene,
-        &probes,
-        &ref_opts,
-        &dir.join(format!("{name}-reference.csv")),
+        area_probes(scene, opts.probes, 0xacc),
+        0,
+        opts,
+        dir,
+        name,
+        "area",
         progress,
     )?;
-    let mut rows = meshrad_rows(name, scene, base, backends, opts, &probes, &reference, progress)?;
-    rows.extend(pathtrace_rows(name, scene, base, opts, &probes, &reference, progress));
+    let camera = Points::new(
+        scene,
+        camera_probes(scene, opts.probes, 0xacc),
+        base.bounces,
+        opts,
+        dir,
+        name,
+        "camera",
+        progress,
+    )?;
+    let mut rows = meshrad_rows(name, scene, base, backends, opts, &area, &camera, progress)?;
+    rows.extend(pathtrace_rows(name, scene, opts, &area, progress));
     mark_pareto(&mut rows);
     Ok(rows)
+}
+
+/// Probe points and the reference at them.
+pub struct Points {
+    pub probes: Vec<Probe>,
+    pub reference: Vec<Estimate>,
+}
+
+impl Points {
+    /// The reference at `probes`: the converged series (`max_bounces = 0`) or cut after
+    /// `max_bounces`; cached in `dir` under the scene's name and `kind`.
+    #[allow(clippy::too_many_arguments)] // one reference's inputs, passed through once
+    fn new(
+        scene: &Scene,
+        probes: Vec<Probe>,
+        max_bounces: u32,
+        opts: &AccuracyOptions,
+        dir: &Path,
+        name: &str,
+        kind: &str,
+        progress: &Progress,
+    ) -> Result<Points> {
+        let ref_opts = ReferenceOptions {
+            samples: opts.reference_samples,
+            max_bounces,
+            ..Default::default()
+        };
+        let cut = if max_bounces == 0 {
+            "converged".to_string()
+        } else {
+            format!("{max_bounces}-bounces")
+        };
+        let cache = dir.join(format!("{name}-{kind}-{cut}-reference.csv"));
+        let (reference, _) = reference_at(scene, &probes, &ref_opts, &cache, progress)?;
+        Ok(Points { probes, reference })
+    }
 }
 
 /// meshrad at every configuration on every backend; a hierarchy is built once per
@@ -208,13 +263,18 @@ fn meshrad_rows(
     base: &SolverParams,
     backends: &[Option<Arc<Context>>],
     opts: &AccuracyOptions,
-    probes: &[Probe],
-    reference: &[Estimate],
+    area: &Points,
+    camera: &Points,
     progress: &Progress,
 ) -> Result<Vec<Row>> {
+    let both: Vec<Probe> = area.probes.iter().chain(&camera.probes).copied().collect();
     let mut rows = Vec::new();
     let mut hierarchies: Vec<(String, Hierarchy, f64)> = Vec::new();
-    for (label, params) in configurations(base, opts.quick) {
+    let mut configs = configurations(base, opts.quick);
+    if opts.defaults_only {
+        configs.truncate(1);
+    }
+    for (label, params) in configs {
         let key = format!("{}|{}", params.levels, params.coarsest);
         if !hierarchies.iter().any(|(k, _, _)| *k == key) {
             progress.stage(&format!("{name}: hierarchy {key}"));
@@ -233,10 +293,12 @@ fn meshrad_rows(
                 &params,
                 h,
                 ctx.clone(),
-                probes,
+                &both,
                 ctx.is_some(),
                 &Progress::hidden(),
             )?;
+            let (at_area, at_camera) = m.values.split_at(area.probes.len());
+            let coverage = (label == "defaults").then(|| coverage::first_bounce(scene, h, &params));
             rows.push(Row {
                 scene: name.into(),
                 method: "meshrad".into(),
@@ -254,7 +316,9 @@ fn meshrad_rows(
                 seconds_hierarchy: *th,
                 integrals: m.integrals,
                 rays_traced: m.rays,
-                error: indirect_error(&m.values, reference),
+                error: indirect_error(at_area, &area.reference),
+                error_camera: indirect_error(at_camera, &camera.reference),
+                coverage,
                 pareto: false,
             });
         }
@@ -262,25 +326,17 @@ fn meshrad_rows(
     Ok(rows)
 }
 
-/// Path tracing at the same points with independent seeds and increasing samples; its
-/// time is scaled from per point to the camera's pixel count.
-fn pathtrace_rows(
-    name: &str,
-    scene: &Scene,
-    base: &SolverParams,
-    opts: &AccuracyOptions,
-    probes: &[Probe],
-    reference: &[Estimate],
-    progress: &Progress,
-) -> Vec<Row> {
-    let pts: Vec<(Vec3, Vec3)> = probes.iter().map(|q| (q.p, q.n)).collect();
+/// Path tracing (the unbounded series) at the area-uniform points with independent seeds
+/// and increasing samples; its time is scaled from per point to the camera's pixel count.
+fn pathtrace_rows(name: &str, scene: &Scene, opts: &AccuracyOptions, area: &Points, progress: &Progress) -> Vec<Row> {
+    let pts: Vec<(Vec3, Vec3)> = area.probes.iter().map(|q| (q.p, q.n)).collect();
     let pixels = (scene.camera.width * scene.camera.height) as f64;
     let mut rows = Vec::new();
-    for &spp in &opts.pathtrace_samples {
+    for &spp in opts.pathtrace_samples.iter().filter(|&&s| s > 0) {
         progress.stage(&format!("{name}: path tracing {spp} samples"));
         let o = ReferenceOptions {
             samples: spp,
-            max_bounces: base.bounces,
+            max_bounces: 0,
             seed: 0xba5e + spp as u64,
             ..Default::default()
         };
@@ -305,7 +361,9 @@ fn pathtrace_rows(
             seconds_hierarchy: 0.0,
             integrals: pts.len() as u64,
             rays_traced: 0,
-            error: indirect_error(&values, reference),
+            error: indirect_error(&values, &area.reference),
+            error_camera: ErrorStats::default(),
+            coverage: None,
             pareto: false,
         });
     }
@@ -316,12 +374,13 @@ fn pathtrace_rows(
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
         "scene,method,backend,variant,label,rays,levels,coarsest,gather_levels,sender_level,eps_rel,seconds,\
-         seconds_kernels,seconds_hierarchy,integrals,rays_traced,rel_rms,max_rel,reference_noise,points,pareto\n",
+         seconds_kernels,seconds_hierarchy,integrals,rays_traced,rel_rms,max_rel,reference_noise,points,\
+         median_ratio,mean_ratio,energy_ratio,off_3x,below_floor,leak,camera_rel_rms,camera_median_ratio,pareto\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.4},{:.4},{:.4},{},{},{:.4},{:.6},{:.4},{}",
             r.scene,
             r.method,
             r.backend.replace(',', ";"),
@@ -342,6 +401,14 @@ pub fn csv(rows: &[Row]) -> String {
             r.error.max_rel,
             r.error.reference_noise,
             r.error.points,
+            r.error.median_ratio,
+            r.error.mean_ratio,
+            r.error.energy_ratio,
+            r.error.off_3x,
+            r.error.below_floor,
+            r.error.leak,
+            r.error_camera.rel_rms,
+            r.error_camera.median_ratio,
             r.pareto
         );
     }

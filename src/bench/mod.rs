@@ -1,6 +1,7 @@
 //! Benchmarks a user can rerun (`meshrad bench ...`): run time against error
-//! ([`accuracy`]) and the paper's Table 2 ([`table2`]). Shared here: probe points on the
-//! lit surfaces, the cached Monte Carlo reference at them, and a timed solve.
+//! ([`accuracy`]) and the paper's Table 2 ([`table2`]). Shared here: probe points (drawn
+//! uniformly by area over every surface that can receive light, or where the camera
+//! looks), the cached Monte Carlo reference at them, and a timed solve.
 
 pub mod accuracy;
 pub mod plot;
@@ -10,11 +11,15 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
+use crate::geom::ray::tri_normal;
 use crate::geom::rng::Rng;
+use crate::geom::sampling::{cosine_direction, onb};
+use crate::geom::transform::{xform_point, xform_vector};
+use crate::geom::Ray;
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::output::probe::{self, Probe};
@@ -24,10 +29,81 @@ use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
 use crate::transport::Solution;
 
+/// `n` points drawn uniformly by area over every surface side that can receive light: the
+/// solution is the whole scene, not one view. A triangle is drawn with probability
+/// proportional to its world-space area and a point uniformly on it; of its two sides,
+/// those that can receive light ([`receives_light`]) are kept, and one of them is chosen
+/// at random (a point where neither can is drawn again). Independent of the solver: only
+/// the geometry, the materials and the lights decide.
+pub fn area_probes(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
+    let mut cdf = Vec::with_capacity(scene.tris.len());
+    let mut owner = Vec::with_capacity(scene.tris.len());
+    let mut total = 0.0f64;
+    for (o, obj) in scene.objects.iter().enumerate() {
+        let s2 = (obj.transform.scale as f64).powi(2);
+        for t in &scene.tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
+            let (a, b, c) = (
+                Vec3::from(t.v0).as_dvec3(),
+                Vec3::from(t.v1).as_dvec3(),
+                Vec3::from(t.v2).as_dvec3(),
+            );
+            total += 0.5 * (b - a).cross(c - a).length() * s2;
+            cdf.push(total);
+            owner.push(o);
+        }
+    }
+    let mut rng = Rng::new(seed, 0xa2ea);
+    let mut out = Vec::with_capacity(n);
+    let mut tries = 0;
+    while out.len() < n && tries < 100 * n.max(1) && total > 0.0 {
+        tries += 1;
+        let u = rng.next_f64() * total;
+        let i = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+        let (t, obj) = (&scene.tris[i], &scene.objects[owner[i]]);
+        let (u1, u2) = (rng.next_f32().sqrt(), rng.next_f32());
+        let (v0, v1, v2) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+        let p_obj = v0 * (1.0 - u1) + v1 * (u1 * (1.0 - u2)) + v2 * (u1 * u2);
+        let p = xform_point(&obj.to_world, p_obj);
+        let n = xform_vector(&obj.to_world, tri_normal(t)).normalize_or_zero();
+        if n == Vec3::ZERO {
+            continue;
+        }
+        let sides: Vec<Vec3> = [n, -n]
+            .into_iter()
+            .filter(|&s| receives_light(scene, p, s, &mut rng))
+            .collect();
+        if sides.is_empty() {
+            continue;
+        }
+        let s = sides[(rng.next_u64() % sides.len() as u64) as usize];
+        out.push(Probe { p, n: s });
+    }
+    out
+}
+
+/// Whether the side `n` of the surface point `p` can receive light: it is lit directly,
+/// or one of 64 cosine-distributed rays from it reaches a reflecting surface that is (so
+/// that the first bounce can bring light there). A side that neither test finds (inside a
+/// closed solid, the back of a wall of a closed room) is no receiver.
+pub fn receives_light(scene: &Scene, p: Vec3, n: Vec3, rng: &mut Rng) -> bool {
+    if scene.direct(p, n).max_element() > 0.0 {
+        return true;
+    }
+    let (t, b) = onb(n);
+    let o = scene.offset(p, n);
+    (0..64).any(|_| {
+        let d = cosine_direction(n, t, b, Vec2::new(rng.next_f32(), rng.next_f32()), 0.0);
+        scene.intersect(&Ray { o, d }, f32::INFINITY).is_some_and(|hit| {
+            let s = scene.surface(&hit, d);
+            s.albedo.max_element() > 0.0 && scene.direct(s.p, s.n).max_element() > 0.0
+        })
+    })
+}
+
 /// `n` probe points where the scene's camera sees a surface: the primary hits of random
-/// pixel positions. The error at them is the error a user sees in the image, and no point
-/// falls on surfaces nobody looks at (a building's outside, a block's underside).
-pub fn probes_for(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
+/// pixel positions. The error at them is the error a user sees in the image (a second
+/// view beside [`area_probes`]).
+pub fn camera_probes(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
     let cam = &scene.camera;
     let mut rng = Rng::new(seed, 0x9406e);
     let mut out = Vec::with_capacity(n);

@@ -12,7 +12,7 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::{measure, probes_for, reference_at, Measured};
+use super::{camera_probes, measure, reference_at, Measured};
 use crate::error::{Error, Result};
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
@@ -160,7 +160,7 @@ pub fn run_scene(
     let t = Instant::now();
     let h = Hierarchy::build(&scene, &params, &Progress::hidden())?;
     let seconds_hierarchy = t.elapsed().as_secs_f64();
-    let probes = probes_for(&scene, opts.probes, 0x7ab1e2);
+    let probes = camera_probes(&scene, opts.probes, 0x7ab1e2);
     let ref_opts = ReferenceOptions {
         samples: opts.reference_samples,
         max_bounces: params.bounces,

@@ -47,12 +47,15 @@ pub struct AccuracyArgs {
     /// Reference paths per probe point.
     #[arg(long, default_value_t = 65536)]
     reference_samples: u32,
-    /// Path-tracing baseline, samples per point (comma-separated).
+    /// Path-tracing baseline, samples per point (comma-separated; 0: none).
     #[arg(long, value_delimiter = ',', default_value = "16,64,256,1024,4096")]
     pathtrace: Vec<u32>,
     /// A reduced sweep (a few points per variant).
     #[arg(long)]
     quick: bool,
+    /// Only the scene's own settings (with the path-tracing baseline unless --pathtrace 0).
+    #[arg(long)]
+    defaults_only: bool,
     #[arg(long, short)]
     quiet: bool,
 }
@@ -112,6 +115,7 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
         reference_samples: a.reference_samples,
         pathtrace_samples: a.pathtrace.clone(),
         quick: a.quick,
+        defaults_only: a.defaults_only,
     };
     let scenes: Vec<(String, (Scene, SolverParams))> = if a.scenes.is_empty() {
         vec![("cornell".into(), Scene::embedded_cornell(&[])?)]
@@ -146,9 +150,38 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
     Ok(())
 }
 
-/// Times to reach 5 % and 2 % relative RMS, per scene and series.
+/// The error at the scene's defaults with its bias figures, and the times to reach 5 %
+/// and 2 % relative RMS per scene and series.
 fn summary(rows: &[accuracy::Row]) -> String {
-    let mut s = String::from("| scene | series | time to 5 % | time to 2 % |\n|---|---|---|---|\n");
+    let mut s = String::from(
+        "| scene | backend | rel-RMS (area, converged) | median e/r | mean e/r | energy e/r | off > 3× | \
+         leak | rel-RMS (camera, cut) | 1st-bounce light lost at hits without value |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for r in rows.iter().filter(|r| r.label == "defaults") {
+        let e = &r.error;
+        s += &format!(
+            "| {} | {} | {:.1} % | {:.3} | {:.3} | {:.3} | {} of {} | {:.3} | {:.1} % | {} |\n",
+            r.scene,
+            r.backend,
+            100.0 * e.rel_rms,
+            e.median_ratio,
+            e.mean_ratio,
+            e.energy_ratio,
+            e.off_3x,
+            e.points,
+            e.leak,
+            100.0 * r.error_camera.rel_rms,
+            r.coverage.map_or("-".to_string(), |c| format!(
+                "{:.2} % ({} of {} rays, {} escaped)",
+                100.0 * c.light_lost,
+                c.no_value,
+                c.rays,
+                c.escaped
+            ))
+        );
+    }
+    s += "\n| scene | series | time to 5 % | time to 2 % |\n|---|---|---|---|\n";
     let mut scenes: Vec<&str> = rows.iter().map(|r| r.scene.as_str()).collect();
     scenes.dedup();
     for sc in scenes {

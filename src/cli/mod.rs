@@ -372,6 +372,9 @@ fn report_solve(sol: &Solution, quiet: bool) {
     for s in sol.stats.skipped.iter().filter(|s| s.starts_with("light ")) {
         eprintln!("warning: {s}");
     }
+    if let Some(s) = &sol.stats.unconverged {
+        eprintln!("warning: {s}");
+    }
 }
 
 fn print_stats(h: &Hierarchy, sol: &Solution, sec: &PhaseSeconds) {

@@ -30,8 +30,8 @@ pub struct ReferenceArgs {
     /// Paths per point (per pixel with --camera).
     #[arg(long)]
     samples: Option<u32>,
-    /// Bounces of the series (default: the scene's `[solver] bounces`; 0: unbounded with
-    /// Russian roulette).
+    /// Bounces of the series (default 0: unbounded with Russian roulette, the converged
+    /// answer).
     #[arg(long)]
     max_bounces: Option<u32>,
     /// Seed (independent of the solver's).
@@ -65,10 +65,10 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
     if !(2..=MAX_SAMPLES).contains(&samples) {
         anyhow::bail!("--samples {samples}: must be within 2..={MAX_SAMPLES} (a standard error needs two samples)");
     }
-    let (scene, params) = Scene::load(&a.scene, &[])?;
+    let (scene, _) = Scene::load(&a.scene, &[])?;
     let opts = ReferenceOptions {
         samples,
-        max_bounces: a.max_bounces.unwrap_or(params.bounces),
+        max_bounces: a.max_bounces.unwrap_or(0),
         seed: a.seed,
         ..Default::default()
     };

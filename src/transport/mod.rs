@@ -5,6 +5,7 @@
 //! stage where they live (the CPU reference in [`cpu`], Vulkan compute in `crate::gpu`).
 //! Per-ray state never leaves a backend; between stages only counts cross.
 
+pub mod coverage;
 pub mod cpu;
 pub mod reconstruct;
 
@@ -125,6 +126,9 @@ pub struct SolveStats {
     pub integrals: u64,
     pub rays_traced: u64,
     pub stopped_early: Option<String>,
+    /// Set when the bounce cap was reached before the un-shot energy fell below
+    /// `stop_threshold`: the series is cut, light is missing.
+    pub unconverged: Option<String>,
     /// Work a scene did not need, and why.
     pub skipped: Vec<String>,
     /// Nodes lit by each light.
@@ -188,6 +192,13 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
                 p.stop_threshold
             ));
             break;
+        }
+        if k == p.bounces && ratio >= p.stop_threshold as f64 && p.stop_threshold > 0.0 {
+            stats.unconverged = Some(format!(
+                "the bounce cap {k} (solver key bounces) was reached with un-shot energy {ratio:.3e} of the direct \
+                 energy, above stop_threshold {}: about that fraction of the indirect light is missing; raise bounces",
+                p.stop_threshold
+            ));
         }
     }
     stats.seconds_bounces = all.elapsed().as_secs_f64();
