@@ -71,3 +71,14 @@ pub const CLIP_DIR: f32 = 32767.0;
 pub const OFFSET_ULPS: f32 = 32.0;
 pub const OFFSET_NEAR_DIV: f32 = 32.0;
 pub const OFFSET_FINE_DIV: f32 = 2_097_152.0;
+
+// The slot layouts fit together (checked at compile time; build.rs reads only the
+// `pub const` lines above).
+const _: () = {
+    assert!(LIGHT_COUNTERS >= COUNTERS_PER_LEVEL * MAX_LEVELS);
+    assert!(COUNTER_REFINED < COUNTERS_PER_LEVEL && COUNTER_ACTIVATED < COUNTERS_PER_LEVEL);
+    assert!(ENERGY_UNSHOT == 0 && ENERGY_DIRECT == 1); // read back as the first two slots
+    assert!(ENERGY_MEAN_DIRECT >= 2 && ENERGY_MEAN_DIRECT + 3 <= ENERGY_SLOTS);
+    assert!(DISPATCH_RAYS + DISPATCH_WORDS <= DISPATCH_REDUCE);
+    assert!(DISPATCH_REDUCE + DISPATCH_WORDS <= DISPATCH_PER_BATCH);
+};

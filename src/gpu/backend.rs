@@ -13,7 +13,7 @@ use super::globals::RAY_BYTES;
 use super::kernels::{Kernels, Recorder};
 use super::pipeline::Specialization;
 use super::profiler::Profiler;
-use super::resources::{Cwbvh, Resources, LEVEL_COUNTER_BYTES};
+use super::resources::{Cwbvh, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use super::schedule::{Active, Schedule};
 use crate::constants::{
     BVH_BVH2, BVH_CWBVH, COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_REFINED, ENERGY_DIRECT, ENERGY_UNSHOT,
@@ -260,7 +260,7 @@ impl Backend for GpuBackend<'_> {
 
     fn end_bounce(&mut self) -> Result<Energy> {
         self.submit(|s, rec| s.end_bounce(rec))?;
-        let v: Vec<f32> = self.res.state.energy.download(0, 2)?;
+        let v: Vec<f32> = self.res.state.energy.download(0, ENERGY_DIRECT as usize + 1)?;
         Ok(Energy {
             unshot: v[ENERGY_UNSHOT as usize] as f64,
             direct: v[ENERGY_DIRECT as usize] as f64,
@@ -274,7 +274,8 @@ impl Backend for GpuBackend<'_> {
         self.submit(|s, rec| s.bounce(rec, g))?;
         let bytes = self.res.readback.mapped()?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..LEVEL_COUNTER_BYTES as usize]);
-        let e: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes[LEVEL_COUNTER_BYTES as usize..][..8]);
+        let e: Vec<f32> =
+            bytemuck::pod_collect_to_vec(&bytes[LEVEL_COUNTER_BYTES as usize..][..ENERGY_READ_BYTES as usize]);
         let slot = |l: u32, which: u32| c[(COUNTERS_PER_LEVEL * l + which) as usize];
         Ok(Some(FusedBounce {
             integrals: (0..g)

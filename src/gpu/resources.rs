@@ -9,7 +9,9 @@ use gpu_allocator::MemoryLocation;
 use super::buffer::Buffer;
 use super::context::Context;
 use super::globals::{Globals, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
-use crate::constants::{COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_SLOTS, LIGHT_COUNTERS, MAX_LEVELS};
+use crate::constants::{
+    COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_DIRECT, ENERGY_SLOTS, LIGHT_COUNTERS, MAX_LEVELS,
+};
 use crate::error::Result;
 use crate::geom::bvh;
 use crate::geom::sampling::halton_table;
@@ -171,8 +173,8 @@ pub struct Resources {
 
 /// Bytes of the level counters a bounce reads back.
 pub const LEVEL_COUNTER_BYTES: u64 = 4 * (COUNTERS_PER_LEVEL * MAX_LEVELS) as u64;
-/// Bytes of the energy sums a bounce reads back (un-shot and direct).
-pub const ENERGY_READ_BYTES: u64 = 8;
+/// Bytes of the energy sums a bounce reads back (un-shot and direct, the first slots).
+pub const ENERGY_READ_BYTES: u64 = 4 * (ENERGY_DIRECT as u64 + 1);
 
 fn vec4_bytes(n: usize) -> u64 {
     (n * 16) as u64
