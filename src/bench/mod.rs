@@ -11,15 +11,13 @@ use std::path::Path;
 use std::sync::Arc;
 use std::time::Instant;
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{DVec3, Vec3};
 use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::geom::ray::tri_normal;
 use crate::geom::rng::Rng;
-use crate::geom::sampling::{cosine_direction, onb};
 use crate::geom::transform::{xform_point, xform_vector};
-use crate::geom::Ray;
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::output::probe::{self, Probe};
@@ -32,7 +30,7 @@ use crate::transport::Solution;
 /// `n` points drawn uniformly by area over every surface side that can receive light: the
 /// solution is the whole scene, not one view. A triangle is drawn with probability
 /// proportional to its world-space area and a point uniformly on it; of its two sides,
-/// those that can receive light ([`receives_light`]) are kept, and one of them is chosen
+/// those that can receive light ([`Scene::receives_light`]) are kept, and one of them is chosen
 /// at random (a point where neither can is drawn again). Independent of the solver: only
 /// the geometry, the materials and the lights decide.
 pub fn area_probes(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
@@ -70,7 +68,7 @@ pub fn area_probes(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
         }
         let sides: Vec<Vec3> = [n, -n]
             .into_iter()
-            .filter(|&s| receives_light(scene, p, s, &mut rng))
+            .filter(|&s| scene.receives_light(p, s, &mut rng))
             .collect();
         if sides.is_empty() {
             continue;
@@ -79,25 +77,6 @@ pub fn area_probes(scene: &Scene, n: usize, seed: u64) -> Vec<Probe> {
         out.push(Probe { p, n: s });
     }
     out
-}
-
-/// Whether the side `n` of the surface point `p` can receive light: it is lit directly,
-/// or one of 64 cosine-distributed rays from it reaches a reflecting surface that is (so
-/// that the first bounce can bring light there). A side that neither test finds (inside a
-/// closed solid, the back of a wall of a closed room) is no receiver.
-pub fn receives_light(scene: &Scene, p: Vec3, n: Vec3, rng: &mut Rng) -> bool {
-    if scene.direct(p, n).max_element() > 0.0 {
-        return true;
-    }
-    let (t, b) = onb(n);
-    let o = scene.offset(p, n);
-    (0..64).any(|_| {
-        let d = cosine_direction(n, t, b, Vec2::new(rng.next_f32(), rng.next_f32()), 0.0);
-        scene.intersect(&Ray { o, d }, f32::INFINITY).is_some_and(|hit| {
-            let s = scene.surface(&hit, d);
-            s.albedo.max_element() > 0.0 && scene.direct(s.p, s.n).max_element() > 0.0
-        })
-    })
 }
 
 /// `n` probe points where the scene's camera sees a surface: the primary hits of random

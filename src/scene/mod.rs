@@ -97,6 +97,25 @@ pub struct Surface {
 }
 
 impl Scene {
+    /// Whether the side `n` of the surface point `p` can receive light: it is lit directly,
+    /// or one of 64 cosine-distributed rays from it reaches a reflecting surface that is (so
+    /// that the first bounce can bring light there). A side that neither test finds (inside a
+    /// closed solid, the back of a wall of a closed room) is no receiver.
+    pub fn receives_light(&self, p: Vec3, n: Vec3, rng: &mut crate::geom::rng::Rng) -> bool {
+        if self.direct(p, n).max_element() > 0.0 {
+            return true;
+        }
+        let (t, b) = crate::geom::sampling::onb(n);
+        let o = self.offset(p, n);
+        (0..64).any(|_| {
+            let d = crate::geom::sampling::cosine_direction(n, t, b, Vec2::new(rng.next_f32(), rng.next_f32()), 0.0);
+            self.intersect(&Ray { o, d }, f32::INFINITY).is_some_and(|hit| {
+                let s = self.surface(&hit, d);
+                s.albedo.max_element() > 0.0 && self.direct(s.p, s.n).max_element() > 0.0
+            })
+        })
+    }
+
     /// Loads a scene file from disk; `overrides` replace `[solver]` keys. Resource limits
     /// are the defaults ([`Limits::default`]).
     pub fn load(path: &Path, overrides: &[(String, toml::Value)]) -> Result<(Scene, SolverParams)> {

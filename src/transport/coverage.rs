@@ -27,7 +27,7 @@ pub struct Coverage {
     pub escaped: u64,
     /// Hits where the sender level has no value.
     pub no_value: u64,
-    /// Of those, hits on a side that can receive light (`bench::receives_light`): light of
+    /// Of those, hits on a side that can receive light (`Scene::receives_light`): light of
     /// later bounces lost there.
     pub no_value_receiving: u64,
     /// `Σ ρ E_d` at hits without a value over `Σ ρ E_d` at all hits (mean of the RGB
@@ -70,7 +70,7 @@ pub fn first_bounce(scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Coverage 
                 if !has_value(h, p, &ones, s.object as usize, s.p_obj, s.n_obj) {
                     none += 1;
                     lost += light;
-                    recv += crate::bench::receives_light(scene, s.p, s.n, &mut rng) as u64;
+                    recv += scene.receives_light(s.p, s.n, &mut rng) as u64;
                 }
             }
             (halton.len() as u64, esc, none, recv, lost, all)
