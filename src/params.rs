@@ -72,6 +72,11 @@ pub struct SolverParams {
     pub gather_levels: Option<u32>,
     /// Level used for outputs (images, probes); default: the finest.
     pub output_level: Option<u32>,
+    /// Rays of a final gather at each probe point: the last hop traced, the basis read at
+    /// its hits (0: the basis read at the point itself).
+    pub final_gather: u32,
+    /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
+    pub final_gather_pixels: u32,
     /// Support `h_l = kappa * r_l`.
     pub kappa: f32,
     /// Weight of the normal difference in the distance `δ`.
@@ -117,6 +122,8 @@ impl Default for SolverParams {
             sender_level: 4,
             gather_levels: None,
             output_level: None,
+            final_gather: 1024,
+            final_gather_pixels: 0,
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,
@@ -170,6 +177,8 @@ impl SolverParams {
         range("sender_level", self.sender_level, 0, self.levels - 1)?;
         range("gather_levels", self.gather_levels(), 1, self.levels)?;
         range("output_level", self.output_level(), 0, self.levels - 1)?;
+        range("final_gather", self.final_gather, 0, 1 << 16)?;
+        range("final_gather_pixels", self.final_gather_pixels, 0, 1 << 16)?;
         range("max_candidates", self.max_candidates, 1, 200_000_000)?;
         range("reach_paths", self.reach_paths, 1024, 1 << 28)?;
         range("reach_bounces", self.reach_bounces, 1, 64)?;

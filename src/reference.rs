@@ -85,6 +85,40 @@ fn path(scene: &Scene, x: Vec3, n: Vec3, opts: &ReferenceOptions, rng: &mut Rng)
     sum
 }
 
+/// The terms `1..=terms` of the series at `(x, n)` separately (term `k`: the light of the
+/// `k`-th bounce, the solver's bounce `k`), each the mean over `opts.samples` paths cut
+/// after `terms` bounces (no Russian roulette).
+pub fn terms(scene: &Scene, x: Vec3, n: Vec3, opts: &ReferenceOptions, terms: usize, stream: u64) -> Vec<DVec3> {
+    let mut rng = Rng::new(opts.seed, stream.wrapping_mul(1 << 20) ^ 0x7e57);
+    let mut sum = vec![DVec3::ZERO; terms];
+    for _ in 0..opts.samples {
+        let mut weight = DVec3::ONE;
+        let (mut p, mut nrm) = (x, n);
+        for term in sum.iter_mut() {
+            let (t, b) = onb(nrm);
+            let d = cosine_direction(nrm, t, b, Vec2::new(rng.next_f32(), rng.next_f32()), 0.0);
+            let Some(hit) = scene.intersect(
+                &Ray {
+                    o: scene.offset(p, nrm),
+                    d,
+                },
+                f32::INFINITY,
+            ) else {
+                break;
+            };
+            let s = scene.surface(&hit, d);
+            weight *= s.albedo.as_dvec3();
+            if weight.max_element() == 0.0 {
+                break;
+            }
+            *term += weight * scene.direct(s.p, s.n).as_dvec3();
+            p = s.p;
+            nrm = s.n;
+        }
+    }
+    sum.iter().map(|v| *v / opts.samples.max(1) as f64).collect()
+}
+
 /// The indirect irradiance at `(x, n)` from `opts.samples` paths; `stream` decorrelates
 /// points.
 pub fn indirect(scene: &Scene, x: Vec3, n: Vec3, opts: &ReferenceOptions, stream: u64) -> Estimate {

@@ -187,7 +187,7 @@ fn probe_prints_the_csv() {
         .collect();
     assert_eq!(rows.len(), 3);
     for r in &rows {
-        assert_eq!(r.len(), 15);
+        assert_eq!(r.len(), 18);
         for c in 0..3 {
             assert!((r[12 + c] - r[6 + c] - r[9 + c]).abs() < 1e-4 * r[12 + c].abs().max(1.0));
         }
@@ -198,6 +198,12 @@ fn probe_prints_the_csv() {
     // The ceiling sees no direct light but gets indirect light.
     assert_eq!(rows[2][6], 0.0);
     assert!(rows[2][9] > 0.0);
+    // A final gather by default: its standard error is reported, and it is small.
+    for r in &rows {
+        for c in 0..3 {
+            assert!(r[15 + c] > 0.0 && r[15 + c] < 0.1 * r[9 + c], "{r:?}");
+        }
+    }
     // Without --out the CSV goes to stdout.
     let o = meshrad(
         &args[..args.len() - 9]

@@ -16,17 +16,19 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 
-use super::{area_probes, camera_probes, measure, reference_at};
+use super::{area_probes, camera_probes, measure, read_at, reference_at, Measured};
 use crate::error::{Error, Result};
 use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::metrics::{indirect_error, ErrorStats};
 use crate::output::probe::Probe;
+use crate::output::write_bytes;
 use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
 use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
 use crate::transport::coverage::{self, Coverage};
+use crate::transport::Solution;
 
 /// Options of a sweep.
 #[derive(Clone, Debug)]
@@ -39,6 +41,10 @@ pub struct AccuracyOptions {
     pub quick: bool,
     /// Only the scene's defaults (and the path-tracing baseline, if any).
     pub defaults_only: bool,
+    /// The error decomposition ([`decomposition`]) instead of the sweep.
+    pub decompose: bool,
+    /// Only the configurations with these labels (empty: all).
+    pub only: Vec<String>,
 }
 
 /// One measured point of the plot.
@@ -58,6 +64,9 @@ pub struct Row {
     /// Solve time (direct + bounces; for path tracing, the camera image's pixel count
     /// times the measured cost per probe point).
     pub seconds: f64,
+    /// Of `seconds`: reading the indirect light at the camera's pixels (the basis, or a
+    /// final gather), scaled from the time per probe point.
+    pub seconds_output: f64,
     pub seconds_kernels: f64,
     pub seconds_hierarchy: f64,
     pub integrals: u64,
@@ -166,6 +175,44 @@ pub fn configurations(base: &SolverParams, quick: bool) -> Vec<(String, SolverPa
     out
 }
 
+/// The error decomposition around `base`: each term of the error switched off or to its
+/// exact (or much finer) form, one at a time, so that the change of the error against
+/// `defaults` is that term's share (`ALGORITHM.md` §8).
+pub fn decomposition(base: &SolverParams) -> Vec<(String, SolverParams)> {
+    let with = |label: &str, f: &dyn Fn(&mut SolverParams)| {
+        let mut p = base.clone();
+        f(&mut p);
+        (label.to_string(), p)
+    };
+    vec![
+        with("defaults", &|_| {}),
+        // Output interpolation: the last hop traced at the point, the basis read one hop
+        // away, with fewer and more rays (every configuration with a final gather is also
+        // read from the basis at the point: "LABEL, basis read").
+        with("final gather 256", &|p| p.final_gather = 256),
+        with("final gather 4096", &|p| p.final_gather = 4096),
+        // Sender reconstruction: the exact Shepard sum instead of the first leaf.
+        with("sender exact", &|p| p.variant = Variant::Modified),
+        // The construction's decisions.
+        with("crevice off", &|p| p.crevice_distance = 0.0),
+        with("clip off", &|p| p.support_clip = false),
+        with("reach x8", &|p| {
+            p.reach_paths = p.reach_paths.saturating_mul(8).min(1 << 28)
+        }),
+        // The oracle's thresholds, a third of the defaults.
+        with("oracle /3", &|p| {
+            p.eps_rel /= 3.0;
+            p.eps_abs /= 3.0;
+        }),
+        // The bounce cut: the series summed much further.
+        with("series 1e-5", &|p| p.stop_threshold = 1e-5),
+        // Monte Carlo noise of the integrals: four times the rays (half the noise).
+        with("rays x4", &|p| p.rays = p.rays.saturating_mul(4).min(1 << 16)),
+        // Node density: twice the nodes per level.
+        with("nodes x2", &|p| p.coarsest = p.coarsest.saturating_mul(2)),
+    ]
+}
+
 /// Marks the Pareto front (no other row of the scene is both faster and more accurate).
 pub fn mark_pareto(rows: &mut [Row]) {
     let snapshot: Vec<(String, f64, f64)> = rows
@@ -212,7 +259,7 @@ pub fn sweep(
         "camera",
         progress,
     )?;
-    let mut rows = meshrad_rows(name, scene, base, backends, opts, &area, &camera, progress)?;
+    let mut rows = meshrad_rows(name, scene, base, backends, opts, &area, &camera, dir, progress)?;
     rows.extend(pathtrace_rows(name, scene, opts, &area, progress));
     mark_pareto(&mut rows);
     Ok(rows)
@@ -265,39 +312,99 @@ fn meshrad_rows(
     opts: &AccuracyOptions,
     area: &Points,
     camera: &Points,
+    dir: &Path,
     progress: &Progress,
 ) -> Result<Vec<Row>> {
     let both: Vec<Probe> = area.probes.iter().chain(&camera.probes).copied().collect();
     let mut rows = Vec::new();
     let mut hierarchies: Vec<(String, Hierarchy, f64)> = Vec::new();
-    let mut configs = configurations(base, opts.quick);
+    let mut configs = if opts.decompose {
+        decomposition(base)
+    } else {
+        configurations(base, opts.quick)
+    };
     if opts.defaults_only {
         configs.truncate(1);
     }
+    if !opts.only.is_empty() {
+        configs.retain(|(label, _)| opts.only.iter().any(|o| o == label));
+    }
+    // The last solve on each backend, by its transport parameters: a configuration that
+    // only changes how outputs read the solution (final_gather) reuses it.
+    let mut last: Vec<Option<(String, Measured, Solution)>> = vec![None; backends.len()];
+    // In the decomposition, every solve that reads its outputs by a final gather is also
+    // read from the basis directly (the same solve): both columns of each term.
+    let configs: Vec<(String, SolverParams)> = configs
+        .into_iter()
+        .flat_map(|(label, params)| {
+            let mut out = vec![(label.clone(), params.clone())];
+            if opts.decompose && params.final_gather > 0 {
+                let mut q = params;
+                q.final_gather = 0;
+                out.push((format!("{label}, basis read"), q));
+            }
+            out
+        })
+        .collect();
     for (label, params) in configs {
-        let key = format!("{}|{}", params.levels, params.coarsest);
+        let key = format!("{}|{}|{}", params.levels, params.coarsest, params.reach_paths);
+        let key = format!("{key}|{}|{}", params.crevice_distance.to_bits(), params.support_clip);
         if !hierarchies.iter().any(|(k, _, _)| *k == key) {
             progress.stage(&format!("{name}: hierarchy {key}"));
             let t = Instant::now();
             let h = Hierarchy::build(scene, &params, &Progress::hidden())?;
+            // Kept: the first (the defaults') and the newest; the others' memory goes.
+            if hierarchies.len() >= 2 {
+                hierarchies.remove(1);
+            }
             hierarchies.push((key.clone(), h, t.elapsed().as_secs_f64()));
         }
         let (_, h, th) = hierarchies.iter().find(|(k, _, _)| *k == key).expect("built above");
-        for ctx in backends {
+        let solve_key = {
+            let mut q = params.clone();
+            q.final_gather = 0;
+            serde_json::to_string(&q).expect("parameters serialise")
+        };
+        for (b, ctx) in backends.iter().enumerate() {
             progress.stage(&format!(
                 "{name}: {label} on {}",
                 ctx.as_ref().map_or("cpu".into(), |c| c.info.name.clone())
             ));
-            let (m, _) = measure(
-                scene,
-                &params,
-                h,
-                ctx.clone(),
-                &both,
-                ctx.is_some(),
-                &Progress::hidden(),
-            )?;
+            let m = match &last[b] {
+                Some((k, m, sol)) if *k == solve_key => {
+                    let (values, seconds_output) = read_at(scene, h, sol, &params, &both);
+                    Measured {
+                        values,
+                        seconds_output,
+                        ..m.clone()
+                    }
+                }
+                _ => {
+                    let (m, sol) = measure(
+                        scene,
+                        &params,
+                        h,
+                        ctx.clone(),
+                        &both,
+                        ctx.is_some(),
+                        &Progress::hidden(),
+                    )?;
+                    last[b] = Some((solve_key.clone(), m.clone(), sol));
+                    m
+                }
+            };
             let (at_area, at_camera) = m.values.split_at(area.probes.len());
+            if opts.decompose || label == "defaults" {
+                let slug: String = label
+                    .chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect();
+                let file = dir.join(format!(
+                    "{name}-{slug}-{}-points.ply",
+                    if ctx.is_some() { "gpu" } else { "cpu" }
+                ));
+                write_bytes(&file, error_map(&area.probes, at_area, &area.reference).into_bytes())?;
+            }
             let coverage = (label == "defaults").then(|| coverage::first_bounce(scene, h, &params));
             rows.push(Row {
                 scene: name.into(),
@@ -311,7 +418,8 @@ fn meshrad_rows(
                 gather_levels: params.gather_levels(),
                 sender_level: params.sender_level,
                 eps_rel: params.eps_rel,
-                seconds: m.seconds,
+                seconds: m.seconds + m.seconds_output,
+                seconds_output: m.seconds_output,
                 seconds_kernels: m.seconds_kernels,
                 seconds_hierarchy: *th,
                 integrals: m.integrals,
@@ -324,6 +432,32 @@ fn meshrad_rows(
         }
     }
     Ok(rows)
+}
+
+/// The per-point error map: an ASCII PLY of the area-uniform points with their reference,
+/// estimate and estimate/reference (channel means; the ratio is 0 where the reference is
+/// 0), for a viewer that colours points by a property, to see where the deficit and the
+/// leaks sit.
+pub fn error_map(probes: &[Probe], estimate: &[Vec3], reference: &[Estimate]) -> String {
+    let mut s = format!(
+        "ply\nformat ascii 1.0\ncomment meshrad bench accuracy: indirect irradiance at area-uniform points\n\
+         element vertex {}\nproperty float x\nproperty float y\nproperty float z\nproperty float nx\n\
+         property float ny\nproperty float nz\nproperty float reference\nproperty float reference_se\n\
+         property float estimate\nproperty float ratio\nend_header\n",
+        probes.len()
+    );
+    for ((q, e), r) in probes.iter().zip(estimate).zip(reference) {
+        let rm = (r.mean.x + r.mean.y + r.mean.z) / 3.0;
+        let se = (r.std_err.x + r.std_err.y + r.std_err.z) / 3.0;
+        let em = ((e.x + e.y + e.z) / 3.0) as f64;
+        let ratio = if rm > 0.0 { em / rm } else { 0.0 };
+        let _ = writeln!(
+            s,
+            "{} {} {} {} {} {} {rm:.6e} {se:.6e} {em:.6e} {ratio:.5}",
+            q.p.x, q.p.y, q.p.z, q.n.x, q.n.y, q.n.z
+        );
+    }
+    s
 }
 
 /// Path tracing (the unbounded series) at the area-uniform points with independent seeds
@@ -357,6 +491,7 @@ fn pathtrace_rows(name: &str, scene: &Scene, opts: &AccuracyOptions, area: &Poin
             sender_level: 0,
             eps_rel: 0.0,
             seconds: per_point * pixels,
+            seconds_output: per_point * pixels,
             seconds_kernels: 0.0,
             seconds_hierarchy: 0.0,
             integrals: pts.len() as u64,
@@ -374,13 +509,13 @@ fn pathtrace_rows(name: &str, scene: &Scene, opts: &AccuracyOptions, area: &Poin
 pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
         "scene,method,backend,variant,label,rays,levels,coarsest,gather_levels,sender_level,eps_rel,seconds,\
-         seconds_kernels,seconds_hierarchy,integrals,rays_traced,rel_rms,max_rel,reference_noise,points,\
+         seconds_output,seconds_kernels,seconds_hierarchy,integrals,rays_traced,rel_rms,max_rel,reference_noise,points,\
          median_ratio,mean_ratio,energy_ratio,off_3x,below_floor,leak,camera_rel_rms,camera_median_ratio,pareto\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.4},{:.4},{:.4},{},{},{:.4},{:.6},{:.4},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.4},{:.4},{:.4},{},{},{:.4},{:.6},{:.4},{}",
             r.scene,
             r.method,
             r.backend.replace(',', ";"),
@@ -393,6 +528,7 @@ pub fn csv(rows: &[Row]) -> String {
             r.sender_level,
             r.eps_rel,
             r.seconds,
+            r.seconds_output,
             r.seconds_kernels,
             r.seconds_hierarchy,
             r.integrals,

@@ -25,6 +25,7 @@ use crate::params::SolverParams;
 use crate::progress::Progress;
 use crate::reference::{self, Estimate, ReferenceOptions};
 use crate::scene::Scene;
+use crate::transport::readout::Readout;
 use crate::transport::Solution;
 
 /// `n` points drawn uniformly by area over every surface side that can receive light: the
@@ -158,6 +159,9 @@ pub struct Measured {
     pub bounce_seconds: Vec<f64>,
     /// Sum of the GPU kernels' timestamps (GPU only).
     pub seconds_kernels: f64,
+    /// The indirect light read at the camera's pixels as the parameters read it (the basis,
+    /// or a final gather): the time per probe point times the pixel count.
+    pub seconds_output: f64,
     /// Upload and pipeline creation (GPU only; preprocessing).
     pub seconds_setup: f64,
     pub integrals: u64,
@@ -165,6 +169,24 @@ pub struct Measured {
     /// Indirect irradiance at the probes.
     #[serde(skip)]
     pub values: Vec<Vec3>,
+}
+
+/// The indirect irradiance at `probes` read from `sol` as `params` ask ([`Readout`]), and
+/// that readout's cost for the camera's image: the time per point times the pixel count.
+pub fn read_at(
+    scene: &Scene,
+    h: &Hierarchy,
+    sol: &Solution,
+    params: &SolverParams,
+    probes: &[Probe],
+) -> (Vec<Vec3>, f64) {
+    use rayon::prelude::*;
+    let read = Readout::new(scene, h, sol, params);
+    let t = Instant::now();
+    let values: Vec<Vec3> = probes.par_iter().map(|q| read.at(q.p, q.n).mean).collect();
+    let per_point = t.elapsed().as_secs_f64() / probes.len().max(1) as f64;
+    let pixels = (scene.camera.width * scene.camera.height) as f64;
+    (values, per_point * pixels)
 }
 
 /// Solves `scene` for `params` with hierarchy `h` on the CPU (`ctx = None`) or a GPU and evaluates the
@@ -188,11 +210,7 @@ pub fn measure(
         .unwrap_or(0.0);
     let backend = gpu.as_ref().map(|g| g.device.clone()).unwrap_or_else(|| "cpu".into());
     let st = &sol.stats;
-    let level = params.output_level();
-    let values = probes
-        .iter()
-        .map(|q| sol.indirect_at(scene, h, q.p, q.n, level).max(Vec3::ZERO))
-        .collect();
+    let (values, seconds_output) = read_at(scene, h, &sol, params, probes);
     let m = Measured {
         backend: if backend == "cpu" {
             backend
@@ -200,6 +218,7 @@ pub fn measure(
             format!("gpu ({backend})")
         },
         seconds: st.seconds_direct + st.seconds_init + st.seconds_bounces,
+        seconds_output,
         bounce_seconds: st.bounces.iter().map(|b| b.seconds).collect(),
         seconds_kernels: st.kernel_seconds.iter().map(|(_, t)| t).sum(),
         seconds_setup: setup,
@@ -208,4 +227,70 @@ pub fn measure(
         values,
     };
     Ok((m, sol))
+}
+
+/// The solved values at the nodes themselves against the converged reference there, per
+/// level: a term of the error decomposition that leaves the outputs' interpolation out.
+/// A node's value is its own integral where it was gathered and the pull-down of its
+/// parents where it was not.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct NodeBias {
+    pub level: u32,
+    pub nodes: usize,
+    /// Errors of the node values against the reference at the node centres.
+    pub error: crate::metrics::ErrorStats,
+}
+
+/// [`NodeBias`] for up to `per_level` nodes of each level, drawn at random (`seed`).
+pub fn node_bias(
+    scene: &Scene,
+    h: &Hierarchy,
+    sol: &Solution,
+    per_level: usize,
+    opts: &ReferenceOptions,
+    seed: u64,
+) -> Vec<NodeBias> {
+    use glam::Vec4Swizzles;
+    let mut rng = Rng::new(seed, 0x0de5);
+    (0..h.levels as usize)
+        .map(|l| {
+            let range = h.level_range(l);
+            let mut pick: Vec<usize> = range.collect();
+            // A partial Fisher–Yates shuffle: the first `per_level` are a uniform draw.
+            let k = per_level.min(pick.len());
+            for i in 0..k {
+                let j = i + (rng.next_u64() % (pick.len() - i) as u64) as usize;
+                pick.swap(i, j);
+            }
+            pick.truncate(k);
+            let pts: Vec<(Vec3, Vec3)> = pick
+                .iter()
+                .map(|&j| crate::transport::cpu::node_world(scene, h, j))
+                .collect();
+            let refs = reference::indirect_many(scene, &pts, opts);
+            let est: Vec<Vec3> = pick
+                .iter()
+                .map(|&j| {
+                    let nd = &h.nodes[j];
+                    if sol.variant.is_delta() {
+                        crate::transport::reconstruct::delta_sum(
+                            h,
+                            nd.object as usize,
+                            l,
+                            Vec3::from(nd.pos),
+                            Vec3::from(nd.normal),
+                            &sol.values.indirect,
+                        )
+                    } else {
+                        sol.values.indirect[j].xyz()
+                    }
+                })
+                .collect();
+            NodeBias {
+                level: l as u32,
+                nodes: k,
+                error: crate::metrics::indirect_error(&est, &refs),
+            }
+        })
+        .collect()
 }

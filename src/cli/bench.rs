@@ -20,6 +20,40 @@ pub enum BenchCommand {
     Accuracy(AccuracyArgs),
     /// The paper's Table 2 on Cornell, Cornell + Buddha (100k and 1.6M triangles), Sponza.
     Table2(Table2Args),
+    /// Where the first bounce's light goes, without a reference: the level-0 integrals'
+    /// rays cast once, escapes, hits without a value, and the bias of each reconstruction
+    /// on the direct irradiance at the hits (sender as the transport reads it, sender
+    /// exact, output level) against its exact value there.
+    Coverage(CoverageArgs),
+    /// The solved values at the nodes themselves (no output interpolation) against the
+    /// converged reference at the node centres, per level.
+    Nodes(NodesArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct NodesArgs {
+    /// Scene file (default: the embedded Cornell box).
+    scene: Option<PathBuf>,
+    /// Nodes per level.
+    #[arg(long, default_value = "128")]
+    per_level: usize,
+    /// Reference paths per node.
+    #[arg(long, default_value = "8192")]
+    reference_samples: u32,
+    /// Cut the reference after this many bounces (0: the whole series), to compare a
+    /// solve cut at `--bounces K` (with `--set stop_threshold=0`) term by term.
+    #[arg(long, default_value = "0")]
+    reference_bounces: u32,
+    #[command(flatten)]
+    solver: super::SolverArgs,
+}
+
+#[derive(Args, Debug)]
+pub struct CoverageArgs {
+    /// Scene files (default: the embedded Cornell box).
+    scenes: Vec<PathBuf>,
+    #[command(flatten)]
+    solver: super::SolverArgs,
 }
 
 /// Which backends a benchmark runs on.
@@ -56,6 +90,15 @@ pub struct AccuracyArgs {
     /// Only the scene's own settings (with the path-tracing baseline unless --pathtrace 0).
     #[arg(long)]
     defaults_only: bool,
+    /// The error decomposition: each term switched off or to its exact form, one at a time
+    /// (final gather, sender exact, crevice off, clip off, reach x8, oracle /3, series 1e-5,
+    /// rays x4, nodes x2), instead of the sweep.
+    #[arg(long)]
+    decompose: bool,
+    /// Only the configurations with these labels (comma-separated, e.g.
+    /// "defaults,final gather 256").
+    #[arg(long, value_delimiter = ',')]
+    only: Vec<String>,
     #[arg(long, short)]
     quiet: bool,
 }
@@ -97,6 +140,8 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     match cmd {
         BenchCommand::Accuracy(a) => run_accuracy(a),
         BenchCommand::Table2(a) => run_table2(a),
+        BenchCommand::Coverage(a) => run_coverage(a),
+        BenchCommand::Nodes(a) => run_nodes(a),
     }
 }
 
@@ -116,6 +161,8 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
         pathtrace_samples: a.pathtrace.clone(),
         quick: a.quick,
         defaults_only: a.defaults_only,
+        decompose: a.decompose,
+        only: a.only.clone(),
     };
     let scenes: Vec<(String, (Scene, SolverParams))> = if a.scenes.is_empty() {
         vec![("cornell".into(), Scene::embedded_cornell(&[])?)]
@@ -192,6 +239,122 @@ fn summary(rows: &[accuracy::Row]) -> String {
         }
     }
     s
+}
+
+fn run_coverage(a: CoverageArgs) -> Result<()> {
+    let progress = Progress::new(a.solver.quiet);
+    let scenes: Vec<(String, (Scene, SolverParams))> = if a.scenes.is_empty() {
+        vec![("cornell".into(), super::load_scene(None, &a.solver)?)]
+    } else {
+        a.scenes
+            .iter()
+            .map(|p| Ok((p.display().to_string(), super::load_scene(Some(p), &a.solver)?)))
+            .collect::<Result<_>>()?
+    };
+    let mut s = String::from(
+        "| scene | rays | escaped | hits without value | their share of the light | E_d read by the sender / exact | \
+         sender exact / exact | output level / exact | hierarchy s |\n|---|---|---|---|---|---|---|---|---|\n",
+    );
+    for (name, (scene, params)) in scenes {
+        params.validate()?;
+        progress.stage(&format!("{name}: hierarchy"));
+        let t = std::time::Instant::now();
+        let h = crate::hierarchy::Hierarchy::build(&scene, &params, &progress)?;
+        let th = t.elapsed().as_secs_f64();
+        progress.stage(&format!("{name}: first-bounce rays"));
+        let c = crate::transport::coverage::first_bounce(&scene, &h, &params);
+        eprintln!(
+            "{name}: nodes per level {:?}, orphans {:?}, parent holes {:?}, crevice drops {}",
+            h.stats.nodes_per_level,
+            h.stats.orphans_per_level,
+            h.stats.parent_holes_per_level,
+            h.stats.crevice_candidates_dropped
+        );
+        s += &format!(
+            "| {name} | {} | {} | {} | {:.3} % | {:.4} | {:.4} | {:.4} | {th:.1} |\n",
+            c.rays,
+            c.escaped,
+            c.no_value,
+            100.0 * c.light_lost,
+            c.sender_direct_ratio,
+            c.sender_exact_direct_ratio,
+            c.output_direct_ratio
+        );
+    }
+    progress.finish();
+    print!("{s}");
+    Ok(())
+}
+
+fn run_nodes(a: NodesArgs) -> Result<()> {
+    let progress = Progress::new(a.solver.quiet);
+    let (scene, params) = super::load_scene(a.scene.as_deref(), &a.solver)?;
+    let ctx = super::gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let run = crate::solve(&scene, &params, ctx, &progress)?;
+    progress.stage("reference at nodes");
+    let opts = crate::reference::ReferenceOptions {
+        samples: a.reference_samples,
+        max_bounces: a.reference_bounces,
+        ..Default::default()
+    };
+    let rows = crate::bench::node_bias(&scene, &run.hierarchy, &run.solution, a.per_level, &opts, 0x40de);
+    // Bounce by bounce over every level-0 node: the solver's un-shot energy against the
+    // reference's term of the same bounce, both relative to the direct energy there.
+    progress.stage("reference terms at level 0");
+    let (h, sol) = (&run.hierarchy, &run.solution);
+    let k = sol.stats.bounces.len();
+    let level0: Vec<usize> = h.level_range(0).collect();
+    let term_opts = crate::reference::ReferenceOptions {
+        samples: (a.reference_samples / 8).max(64),
+        ..opts
+    };
+    use rayon::prelude::*;
+    let per_node: Vec<Vec<glam::DVec3>> = level0
+        .par_iter()
+        .map(|&j| {
+            let (x, n) = crate::transport::cpu::node_world(&scene, h, j);
+            crate::reference::terms(&scene, x, n, &term_opts, k, j as u64)
+        })
+        .collect();
+    let mean3 = |v: glam::DVec3| (v.x + v.y + v.z) / 3.0;
+    let direct: f64 = level0
+        .iter()
+        .map(|&j| {
+            let d = sol.values.direct[j];
+            (d.x + d.y + d.z) as f64 / 3.0
+        })
+        .sum();
+    progress.finish();
+    println!("| bounce | solver un-shot / direct (level 0) | reference term / direct | solver / reference |\n|---|---|---|---|");
+    for (b, st) in sol.stats.bounces.iter().enumerate() {
+        let r: f64 = per_node.iter().map(|t| mean3(t[b])).sum::<f64>() / direct.max(1e-30);
+        println!(
+            "| {} | {:.5} | {:.5} | {:.3} |",
+            b + 1,
+            st.unshot_ratio,
+            r,
+            st.unshot_ratio / r.max(1e-30)
+        );
+    }
+    println!(
+        "| level | nodes | rel-RMS | median e/r | mean e/r | energy e/r | off > 3x | reference noise |\n|---|---|---|---|---|---|---|---|"
+    );
+    for r in rows {
+        let e = &r.error;
+        println!(
+            "| {} | {} of {} | {:.1} % | {:.3} | {:.3} | {:.3} | {} | {:.1} % |",
+            r.level,
+            e.points,
+            r.nodes,
+            100.0 * e.rel_rms,
+            e.median_ratio,
+            e.mean_ratio,
+            e.energy_ratio,
+            e.off_3x,
+            100.0 * e.reference_noise
+        );
+    }
+    Ok(())
 }
 
 fn run_table2(a: Table2Args) -> Result<()> {

@@ -424,7 +424,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
     progress.stage("images");
-    let img = image::render(&scene, h, sol, params.output_level(), &progress);
+    let img = image::render(&scene, h, sol, &params, &progress);
     let mut files = output::Outputs::default();
     image::encode_all(&a.out, &img, &mut files)?;
     if let Some(p) = &a.export_nodes {
@@ -489,7 +489,7 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
-    let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, params.output_level());
+    let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);
     let text = probe::csv(&probes, &values);
     progress.finish();
     match &a.out {

@@ -10,8 +10,10 @@ use rayon::prelude::*;
 use crate::error::{Error, Result};
 use crate::hierarchy::Hierarchy;
 use crate::output::Outputs;
+use crate::params::SolverParams;
 use crate::progress::Progress;
 use crate::scene::{Scene, Surface};
+use crate::transport::readout::Readout;
 use crate::transport::Solution;
 
 /// Linear radiance images.
@@ -86,14 +88,14 @@ pub fn render_with(
     }
 }
 
-/// Renders the camera view of a solution, reading the indirect light from `level`.
-/// Every light is tested at every pixel: a light that reaches no node (a narrow beam
-/// between them) still lights the surfaces it reaches.
-pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, level: u32, progress: &Progress) -> Images {
+/// Renders the camera view of a solution, reading the indirect light as `params` ask
+/// (the output level, or a final gather of `final_gather_pixels` rays per pixel). Every light is tested at every pixel:
+/// a light that reaches no node (a narrow beam between them) still lights the surfaces
+/// it reaches.
+pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParams, progress: &Progress) -> Images {
     let lights = vec![true; scene.lights.len()];
-    render_with(scene, &lights, progress, |s, _| {
-        sol.indirect_on(h, s.object as usize, s.p_obj, s.n_obj, level)
-    })
+    let read = Readout::for_pixels(scene, h, sol, params);
+    render_with(scene, &lights, progress, |s, _| read.on_surface(s))
 }
 
 /// Encodes `stem.exr` (linear float RGB) and `stem.png` (gamma 2.2, clamped) for `dir`.

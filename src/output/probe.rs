@@ -8,12 +8,16 @@ use rayon::prelude::*;
 
 use crate::error::{Error, Result};
 use crate::hierarchy::Hierarchy;
+use crate::params::SolverParams;
 use crate::scene::Scene;
+use crate::transport::readout::{Read, Readout};
 use crate::transport::Solution;
 
-/// The CSV header of `probe`.
-pub const HEADER: &str =
-    "px,py,pz,nx,ny,nz,direct_r,direct_g,direct_b,indirect_r,indirect_g,indirect_b,total_r,total_g,total_b";
+/// The CSV header of `probe`: the point, direct (exact), indirect and total irradiance, and
+/// the standard error of the indirect (and total) value: the final gather's Monte Carlo
+/// noise, 0 when the basis is read at the point.
+pub const HEADER: &str = "px,py,pz,nx,ny,nz,direct_r,direct_g,direct_b,indirect_r,indirect_g,indirect_b,\
+total_r,total_g,total_b,indirect_se_r,indirect_se_g,indirect_se_b";
 
 /// A query point with a unit normal.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -75,14 +79,19 @@ pub fn read(path: &Path) -> Result<Vec<Probe>> {
     parse(path, &text)
 }
 
-/// Direct (exact) and indirect (hierarchy, clamped at zero) irradiance at each probe.
-pub fn evaluate(scene: &Scene, h: &Hierarchy, sol: &Solution, probes: &[Probe], level: u32) -> Vec<(Vec3, Vec3)> {
+/// Direct (exact) and indirect (read as `params` ask: the basis on the output level,
+/// clamped at zero, or a final gather with its standard error) irradiance at each probe.
+pub fn evaluate(
+    scene: &Scene,
+    h: &Hierarchy,
+    sol: &Solution,
+    probes: &[Probe],
+    params: &SolverParams,
+) -> Vec<(Vec3, Read)> {
+    let read = Readout::new(scene, h, sol, params);
     probes
         .par_iter()
-        .map(|q| {
-            let ind = sol.indirect_at(scene, h, q.p, q.n, level).max(Vec3::ZERO);
-            (scene.direct(q.p, q.n), ind)
-        })
+        .map(|q| (scene.direct(q.p, q.n), read.at(q.p, q.n)))
         .collect()
 }
 
@@ -108,15 +117,16 @@ pub fn reference_csv(probes: &[Probe], direct: &[Vec3], est: &[crate::reference:
 }
 
 /// The CSV text for probes and their values.
-pub fn csv(probes: &[Probe], values: &[(Vec3, Vec3)]) -> String {
+pub fn csv(probes: &[Probe], values: &[(Vec3, Read)]) -> String {
     let mut s = String::from(HEADER);
     s.push('\n');
-    for (q, (d, i)) in probes.iter().zip(values) {
-        let t = *d + *i;
+    for (q, (d, r)) in probes.iter().zip(values) {
+        let (i, se) = (r.mean, r.std_err);
+        let t = *d + i;
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            q.p.x, q.p.y, q.p.z, q.n.x, q.n.y, q.n.z, d.x, d.y, d.z, i.x, i.y, i.z, t.x, t.y, t.z
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            q.p.x, q.p.y, q.p.z, q.n.x, q.n.y, q.n.z, d.x, d.y, d.z, i.x, i.y, i.z, t.x, t.y, t.z, se.x, se.y, se.z
         );
     }
     s

@@ -7,6 +7,7 @@
 
 pub mod coverage;
 pub mod cpu;
+pub mod readout;
 pub mod reconstruct;
 
 use std::time::Instant;
