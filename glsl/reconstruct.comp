@@ -1,7 +1,8 @@
 // Kernel `reconstruct`: the un-shot irradiance at each hit point, read from the sender
 // level by the variant's reconstruction (exact Shepard, delta sum, or first kd leaf),
-// times the albedo there: one Monte Carlo sample `ρ(y) ΔE(y)` per ray.
-// CPU twin: the loop body of transport::cpu::gather_integral.
+// times the albedo there: one Monte Carlo sample `ρ(y) ΔE(y)` per ray. In the first
+// bounce under `exact_first_bounce` the un-shot field is E_d itself, read exactly at the
+// hit by shadow rays. CPU twin: the loop body of transport::cpu::gather_integral.
 #version 460
 #include "surface.glsl"
 #include "hierarchy.glsl"
@@ -26,7 +27,13 @@ void main() {
         if (dot(n, d) > 0.0) {
             n = -n;
         }
-        c = albedo(g, h.tri, tri, h.b1, h.b2) * recon_sender(g, ob, p, n, g.unshot);
+        vec3 e;
+        if (pc.exact_direct == 1u) {
+            e = direct_at(g, xform_point(ob.to_world, p), normalize(xform_vector(ob.to_world, n)), false);
+        } else {
+            e = recon_sender(g, ob, p, n, g.unshot);
+        }
+        c = albedo(g, h.tri, tri, h.b1, h.b2) * e;
     }
     g.contrib.v[id] = vec4(c, 0.0);
 }

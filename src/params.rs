@@ -65,8 +65,14 @@ pub struct SolverParams {
     pub variant: Variant,
     /// Seed of every random choice (candidates, dart throwing, rotations).
     pub seed: u32,
-    /// Level `s` reconstructed at hit points.
+    /// Level `s` reconstructed at hit points (default: 5, the finest of the default
+    /// levels; the paper's Table 1 reads 4).
     pub sender_level: u32,
+    /// The first bounce reads the exact direct irradiance at its hits (one shadow ray per
+    /// hit and light) instead of the sender level's reconstruction of it, which smears
+    /// sunlit patches narrower than a node spacing (ledges, slits of light) into the
+    /// shadow around them or loses them (`ALGORITHM.md` §5.2). Off: the paper's transport.
+    pub exact_first_bounce: bool,
     /// Number `G` of levels that may get gathering integrals (where the oracle refines);
     /// finer levels are pulled down. Default: every level.
     pub gather_levels: Option<u32>,
@@ -85,7 +91,8 @@ pub struct SolverParams {
     pub eps_rel: f32,
     /// Oracle: absolute threshold `ε_abs`, times the mean direct irradiance.
     pub eps_abs: f32,
-    /// Oracle: noise allowance, in standard errors of the gathered value.
+    /// Oracle: noise allowance, in standard errors of the gathered value (default 1; 2
+    /// hides the peaks next to thin bright senders, `ALGORITHM.md` §5.4).
     pub noise_z: f32,
     /// Approximate reconstruction: accept a leaf when `n · n_j > approx_cos`.
     pub approx_cos: f32,
@@ -119,7 +126,8 @@ impl Default for SolverParams {
             bounces: 100,
             variant: Variant::Approx,
             seed: 0,
-            sender_level: 4,
+            sender_level: 5,
+            exact_first_bounce: true,
             gather_levels: None,
             output_level: None,
             final_gather: 1024,
@@ -128,7 +136,7 @@ impl Default for SolverParams {
             alpha: 1.0,
             eps_rel: 0.1,
             eps_abs: 0.01,
-            noise_z: 2.0,
+            noise_z: 1.0,
             approx_cos: 0.5,
             stop_threshold: 1e-3,
             candidate_factor: 8.0,

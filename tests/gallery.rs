@@ -7,17 +7,19 @@
 //! uniformly by area over every surface that can receive light; the test fails when
 //! light is lost or gained (a median or energy estimate/reference outside 0.95–1.05, a
 //! point off by 3×) or the error grows past 5 % (the basis read at the points, without
-//! the final gather, gives 8.4 % here).
+//! the final gather, gives 7.0 % here).
 
 mod common;
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
+use glam::Vec3;
 use meshrad::bench::area_probes;
 use meshrad::metrics::indirect_error;
 use meshrad::params::SolverParams;
 use meshrad::reference::{self, ReferenceOptions};
+use meshrad::transport::cpu::node_world;
 use meshrad::transport::readout::Readout;
 
 /// A closed box `[lo, hi]` with outward-facing triangles, appended to `obj`.
@@ -136,7 +138,77 @@ fn gallery_keeps_its_indirect_light() {
         e.energy_ratio
     );
     assert_eq!(e.off_3x, 0, "points off by more than 3x");
-    // Measured: 2.6 % at the defaults (a final gather of 1024 rays), 8.4 % with the basis
+    // Measured: 2.3 % at the defaults (a final gather of 1024 rays), 7.0 % with the basis
     // read at the points; the reference's own noise is about 2 %.
     assert!(e.rel_rms < 0.05, "rel-RMS {:.2} %", 100.0 * e.rel_rms);
+}
+
+/// A cornice lit from straight above on an otherwise unlit wall: the wall just above it
+/// gets its first bounce from the cornice's top, a sunlit strip narrower than the coarse
+/// levels' supports, with a shadowed step right below it that faces the same way. The
+/// nodes there must get the light the top sends them (the reference's one-bounce term
+/// at the node centres). Gathers next to the thin strip are noisy (σ/g 10–15 % at 512
+/// rays), and with the oracle's noise allowance at 2 standard errors (the value Table 2
+/// was reproduced with) the nodes there are not refined and take their parents'
+/// flattened prediction: 0.83 of the light. The test fails when that returns at the
+/// defaults, and checks that it still sees it at 2.
+#[test]
+fn cornice_light_reaches_the_wall_above() {
+    let dir = common::tmpdir();
+    let mut obj = String::from("mtllib c.mtl\n");
+    let mut n = 0;
+    cuboid(&mut obj, &mut n, [0.0, 0.0, -0.3], [60.0, 20.0, 0.0], "wall");
+    cuboid(&mut obj, &mut n, [0.0, 10.0, 0.0], [60.0, 10.04, 0.08], "wall");
+    cuboid(&mut obj, &mut n, [0.0, 9.9, 0.0], [60.0, 9.94, 0.05], "wall");
+    std::fs::write(dir.path().join("c.obj"), obj).unwrap();
+    std::fs::write(dir.path().join("c.mtl"), "newmtl wall\nKd 0.7 0.7 0.7\n").unwrap();
+    let toml = "[[object]]\nmesh = \"c.obj\"\n\n[[light]]\ntype = \"directional\"\n\
+                direction = [0.0, -1.0, 0.0]\nirradiance = [5.0, 5.0, 5.0]\n";
+    let path = dir.path().join("c.toml");
+    std::fs::write(&path, toml).unwrap();
+    let mut ratios = Vec::new();
+    for noise_z in [SolverParams::default().noise_z, 2.0] {
+        let (scene, mut p) = common::load(&path, &[("bounces", "1"), ("stop_threshold", "0.0")]);
+        p.noise_z = noise_z;
+        let (h, sol) = common::solve_cpu(&scene, &p);
+        // Nodes of every level on the wall's face within 0.3 above the cornice's top.
+        let picked: Vec<(Vec3, Vec3, f64)> = (0..h.nodes.len())
+            .map(|j| {
+                let (x, nn) = node_world(&scene, &h, j);
+                (x, nn, sol.values.indirect[j].x as f64)
+            })
+            .filter(|&(x, nn, _)| {
+                nn.z > 0.99 && x.z.abs() < 1e-3 && x.y > 10.05 && x.y < 10.35 && x.x > 5.0 && x.x < 55.0
+            })
+            .collect();
+        assert!(picked.len() >= 100, "only {} nodes above the cornice", picked.len());
+        let pts: Vec<_> = picked.iter().map(|&(x, nn, _)| (x, nn)).collect();
+        let opts = ReferenceOptions {
+            samples: 4096,
+            max_bounces: 1,
+            ..Default::default()
+        };
+        let refs = reference::indirect_many(&scene, &pts, &opts);
+        let est: f64 = picked.iter().map(|q| q.2).sum();
+        let want: f64 = refs.iter().map(|r| r.mean.x).sum();
+        println!(
+            "CORNICE noise_z {noise_z}: {} nodes, {} integrals, estimate/reference {:.3}",
+            picked.len(),
+            sol.stats.integrals,
+            est / want
+        );
+        ratios.push(est / want);
+    }
+    // Measured: 0.96 at the defaults (noise_z 1), 0.83 at 2.
+    assert!(
+        (0.93..=1.07).contains(&ratios[0]),
+        "the first bounce on the wall above the cornice: estimate/reference {:.3}",
+        ratios[0]
+    );
+    assert!(
+        ratios[1] < ratios[0] - 0.05,
+        "noise_z 2 no longer flattens the peak ({:.3} against {:.3}): the test lost its case",
+        ratios[1],
+        ratios[0]
+    );
 }

@@ -787,7 +787,7 @@ fn a_key_given_twice_is_an_error_and_overrides_complete_the_file() {
         ],
         &["`kappa` is given twice"],
     );
-    // The file alone is invalid (sender_level defaults to 4, above levels − 1); the
+    // The file alone is invalid (sender_level defaults to 5, above levels − 1); the
     // override makes it valid, and the two are checked together.
     d.write(
         "l.toml",

@@ -242,7 +242,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
         batch_first,
         from_list,
         count_slot,
-        pad0
+        exact_direct
     );
     println!("LAYOUT {checked} members checked against the SPIR-V of every kernel");
 }

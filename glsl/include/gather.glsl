@@ -12,7 +12,7 @@ layout(push_constant) uniform GatherPush {
     uint batch_first; // first integral of this batch within the level's integrals
     uint from_list;   // 1: integral i is node active_list[batch_first + i]; 0: node first + batch_first + i
     uint count_slot;  // NONE, or the counter holding the level's active count (device-sized batches)
-    uint pad0;
+    uint exact_direct; // 1: reconstruct reads the exact direct irradiance at the hits
 } pc;
 
 // Integrals in this batch: `count`, or, for a device-sized batch, what the level's

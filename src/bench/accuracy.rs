@@ -191,8 +191,12 @@ pub fn decomposition(base: &SolverParams) -> Vec<(String, SolverParams)> {
         // read from the basis at the point: "LABEL, basis read").
         with("final gather 256", &|p| p.final_gather = 256),
         with("final gather 4096", &|p| p.final_gather = 4096),
-        // Sender reconstruction: the exact Shepard sum instead of the first leaf.
+        // Sender reconstruction: the exact Shepard sum instead of the first leaf; the
+        // finest level instead of the sender level; the first bounce reconstructing the
+        // direct light from the nodes instead of reading it exactly (the paper's way).
         with("sender exact", &|p| p.variant = Variant::Modified),
+        with("sender finest", &|p| p.sender_level = p.levels - 1),
+        with("first bounce reconstructed", &|p| p.exact_first_bounce = false),
         // The construction's decisions.
         with("crevice off", &|p| p.crevice_distance = 0.0),
         with("clip off", &|p| p.support_clip = false),

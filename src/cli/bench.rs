@@ -91,8 +91,8 @@ pub struct AccuracyArgs {
     #[arg(long)]
     defaults_only: bool,
     /// The error decomposition: each term switched off or to its exact form, one at a time
-    /// (final gather, sender exact, crevice off, clip off, reach x8, oracle /3, series 1e-5,
-    /// rays x4, nodes x2), instead of the sweep.
+    /// (final gather, sender exact, sender finest, first bounce reconstructed, crevice off,
+    /// clip off, reach x8, oracle /3, series 1e-5, rays x4, nodes x2), instead of the sweep.
     #[arg(long)]
     decompose: bool,
     /// Only the configurations with these labels (comma-separated, e.g.

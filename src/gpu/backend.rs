@@ -74,6 +74,9 @@ pub struct GpuBackend<'a> {
     /// The active count of the next level to gather, from the last `refine`.
     active_count: u32,
     lights: usize,
+    /// The next gather belongs to the first bounce (set by `init_unshot`, cleared when a
+    /// bounce ends).
+    first_bounce: bool,
     pub report: GpuReport,
 }
 
@@ -127,6 +130,7 @@ impl<'a> GpuBackend<'a> {
             batch,
             active_count: 0,
             lights: scene.lights.len(),
+            first_bounce: false,
             report,
         })
     }
@@ -142,6 +146,7 @@ impl<'a> GpuBackend<'a> {
             rays: self.p.rays,
             delta: self.p.variant.is_delta(),
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
+            exact_direct: self.first_bounce && self.p.exact_first_bounce,
         };
         let (ctx, prof, globals) = (&self.ctx, &mut self.prof, self.res.globals.address);
         ctx.run(|cmd| {
@@ -227,6 +232,7 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn init_unshot(&mut self) -> Result<()> {
+        self.first_bounce = true;
         self.submit(|s, rec| s.init_unshot(rec))
     }
 
@@ -260,6 +266,7 @@ impl Backend for GpuBackend<'_> {
 
     fn end_bounce(&mut self) -> Result<Energy> {
         self.submit(|s, rec| s.end_bounce(rec))?;
+        self.first_bounce = false;
         let v: Vec<f32> = self.res.state.energy.download(0, ENERGY_DIRECT as usize + 1)?;
         Ok(Energy {
             unshot: v[ENERGY_UNSHOT as usize] as f64,
@@ -272,6 +279,7 @@ impl Backend for GpuBackend<'_> {
     fn bounce_fused(&mut self) -> Result<Option<FusedBounce>> {
         let g = self.p.gather_levels();
         self.submit(|s, rec| s.bounce(rec, g))?;
+        self.first_bounce = false;
         let bytes = self.res.readback.mapped()?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..LEVEL_COUNTER_BYTES as usize]);
         let e: Vec<f32> =

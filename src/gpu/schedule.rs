@@ -44,6 +44,9 @@ pub struct Schedule<'a> {
     pub delta: bool,
     /// The device's largest x grid.
     pub max_groups_x: u32,
+    /// Gathers read the exact direct irradiance at their hits (the first bounce under
+    /// `exact_first_bounce`).
+    pub exact_direct: bool,
 }
 
 impl Schedule<'_> {
@@ -90,7 +93,7 @@ impl Schedule<'_> {
             batch_first: 0,
             from_list: (active != Active::Level) as u32,
             count_slot: NONE,
-            pad0: 0,
+            exact_direct: self.exact_direct as u32,
         };
         match active {
             Active::Level | Active::Listed(_) => {

@@ -47,7 +47,10 @@ pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize, lit: &mut [bool]) 
 
 /// One gathering integral at node `j` (kernels `hemisphere`, `trace`, `reconstruct`,
 /// `reduce`): `(1/N) Σ_r ρ(y_r) ΔE(y_r)` over cosine-weighted Halton directions rotated
-/// by the integral's angle, with `ΔE` read from the sender level of `unshot`.
+/// by the integral's angle, with `ΔE` read from the sender level of `unshot` — or, with
+/// `exact_direct` (the first bounce under `exact_first_bounce`), the exact direct
+/// irradiance at each hit by shadow rays, the value the first bounce's un-shot field
+/// stands for.
 pub fn gather_integral(
     scene: &Scene,
     h: &Hierarchy,
@@ -55,6 +58,7 @@ pub fn gather_integral(
     halton: &[Vec2],
     unshot: &[Vec4],
     j: usize,
+    exact_direct: bool,
 ) -> Gathered {
     let (x, n) = node_world(scene, h, j);
     let o = scene.offset(x, n);
@@ -67,7 +71,11 @@ pub fn gather_integral(
         let ray = Ray { o, d };
         if let Some(hit) = scene.intersect(&ray, f32::INFINITY) {
             let s = scene.surface(&hit, d);
-            let e = reconstruct::Sender::of(p).read(h, s.object as usize, s.p_obj, s.n_obj, unshot);
+            let e = if exact_direct {
+                scene.direct(s.p, s.n)
+            } else {
+                reconstruct::Sender::of(p).read(h, s.object as usize, s.p_obj, s.n_obj, unshot)
+            };
             let c = (s.albedo * e).as_dvec3();
             sum += c;
             sum2 += c * c;
@@ -117,6 +125,9 @@ pub struct CpuBackend<'a> {
     is_active: Vec<bool>,
     active: Vec<u32>,
     mean_direct: Vec3,
+    /// The next gather belongs to the first bounce (set by `init_unshot`, cleared by
+    /// `end_bounce`).
+    first_bounce: bool,
     progress: Progress,
 }
 
@@ -136,6 +147,7 @@ impl<'a> CpuBackend<'a> {
             is_active: vec![false; n],
             active: Vec::new(),
             mean_direct: Vec3::ZERO,
+            first_bounce: false,
             progress: progress.clone(),
         }
     }
@@ -209,6 +221,7 @@ impl Backend for CpuBackend<'_> {
 
     fn init_unshot(&mut self) -> Result<()> {
         self.indirect.fill(Vec4::ZERO);
+        self.first_bounce = true;
         if !self.p.variant.is_delta() {
             self.unshot.copy_from_slice(&self.direct);
             return Ok(());
@@ -244,11 +257,12 @@ impl Backend for CpuBackend<'_> {
     fn gather(&mut self, level: u32) -> Result<u32> {
         let list = self.active_list(level);
         let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
+        let exact = self.first_bounce && p.exact_first_bounce;
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
         let results: Vec<Gathered> = list
             .par_iter()
             .map(|&j| {
-                let g = gather_integral(scene, h, p, halton, unshot, j as usize);
+                let g = gather_integral(scene, h, p, halton, unshot, j as usize, exact);
                 bar.inc(1);
                 g
             })
@@ -324,6 +338,7 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn end_bounce(&mut self) -> Result<Energy> {
+        self.first_bounce = false;
         for (e, n) in self.indirect.iter_mut().zip(&self.next) {
             *e += *n;
         }

@@ -24,8 +24,9 @@ pub struct GatherPush {
     pub from_list: u32,
     /// `NONE`, or the counter slot holding the level's active count (device-sized batches).
     pub count_slot: u32,
-    /// Padding.
-    pub pad0: u32,
+    /// 1: the reconstruct kernel reads the exact direct irradiance at each hit (shadow
+    /// rays) instead of the sender level (the first bounce under `exact_first_bounce`).
+    pub exact_direct: u32,
 }
 
 /// Who sizes a batch's grids.
