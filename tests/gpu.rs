@@ -109,7 +109,7 @@ fn kernels_of_a_gather_match_cpu() {
         }
         let level = 0;
         let n = h.level_range(level).len();
-        assert_eq!(g.gather(level as u32).unwrap() as usize, n);
+        assert_eq!(g.gather(level as u32, exact).unwrap() as usize, n);
         let (gr, gh, gs) = g.read_batch(n * rays as usize).unwrap();
         let halton = halton_table(rays);
         let sender = Sender::of(&p);
@@ -200,7 +200,10 @@ fn kernels_of_the_refinement_match_cpu() {
             b.init_unshot().unwrap();
         }
         for level in 0..3u32 {
-            let (ng, nc) = (g.gather(level).unwrap(), c.gather(level).unwrap());
+            let (ng, nc) = (
+                g.gather(level, p.exact_first_bounce).unwrap(),
+                c.gather(level, p.exact_first_bounce).unwrap(),
+            );
             assert_eq!(ng, nc, "{variant:?}: active set of level {level} (kernel compact)");
             let activate = level == 1; // level 2 is the last gathered level here
             let (rg, rc) = (g.refine(level, activate).unwrap(), c.refine(level, activate).unwrap());

@@ -270,7 +270,7 @@ fn gpu_reduction_of_a_million_samples() {
     for b in [&mut g as &mut dyn Backend, &mut c] {
         b.direct().unwrap();
         b.init_unshot().unwrap();
-        b.gather(0).unwrap();
+        b.gather(0, params.exact_first_bounce).unwrap();
     }
     let gm = g.read_state(meshrad::gpu::backend::State::GatheredMean).unwrap();
     let mut worst = 0.0f64;

@@ -74,9 +74,6 @@ pub struct GpuBackend<'a> {
     /// The active count of the next level to gather, from the last `refine`.
     active_count: u32,
     lights: usize,
-    /// The next gather belongs to the first bounce (set by `init_unshot`, cleared when a
-    /// bounce ends).
-    first_bounce: bool,
     pub report: GpuReport,
 }
 
@@ -130,7 +127,6 @@ impl<'a> GpuBackend<'a> {
             batch,
             active_count: 0,
             lights: scene.lights.len(),
-            first_bounce: false,
             report,
         })
     }
@@ -146,7 +142,6 @@ impl<'a> GpuBackend<'a> {
             rays: self.p.rays,
             delta: self.p.variant.is_delta(),
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
-            exact_direct: self.first_bounce && self.p.exact_first_bounce,
         };
         let (ctx, prof, globals) = (&self.ctx, &mut self.prof, self.res.globals.address);
         ctx.run(|cmd| {
@@ -232,17 +227,16 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn init_unshot(&mut self) -> Result<()> {
-        self.first_bounce = true;
         self.submit(|s, rec| s.init_unshot(rec))
     }
 
-    fn gather(&mut self, level: u32) -> Result<u32> {
+    fn gather(&mut self, level: u32, exact_direct: bool) -> Result<u32> {
         let (active, count) = if level <= 1 {
             (Active::Level, self.h.level_range(level as usize).len() as u32)
         } else {
             (Active::Listed(self.active_count), self.active_count)
         };
-        self.submit(|s, rec| s.gather(rec, level, active))?;
+        self.submit(|s, rec| s.gather(rec, level, active, exact_direct))?;
         Ok(count)
     }
 
@@ -266,7 +260,6 @@ impl Backend for GpuBackend<'_> {
 
     fn end_bounce(&mut self) -> Result<Energy> {
         self.submit(|s, rec| s.end_bounce(rec))?;
-        self.first_bounce = false;
         let v: Vec<f32> = self.res.state.energy.download(0, ENERGY_DIRECT as usize + 1)?;
         Ok(Energy {
             unshot: v[ENERGY_UNSHOT as usize] as f64,
@@ -276,10 +269,9 @@ impl Backend for GpuBackend<'_> {
 
     /// One bounce in one submission ([`Schedule::bounce`]); the counts and energies come
     /// back once, at the end.
-    fn bounce_fused(&mut self) -> Result<Option<FusedBounce>> {
+    fn bounce_fused(&mut self, exact_direct: bool) -> Result<Option<FusedBounce>> {
         let g = self.p.gather_levels();
-        self.submit(|s, rec| s.bounce(rec, g))?;
-        self.first_bounce = false;
+        self.submit(|s, rec| s.bounce(rec, g, exact_direct))?;
         let bytes = self.res.readback.mapped()?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..LEVEL_COUNTER_BYTES as usize]);
         let e: Vec<f32> =

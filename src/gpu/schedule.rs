@@ -44,9 +44,6 @@ pub struct Schedule<'a> {
     pub delta: bool,
     /// The device's largest x grid.
     pub max_groups_x: u32,
-    /// Gathers read the exact direct irradiance at their hits (the first bounce under
-    /// `exact_first_bounce`).
-    pub exact_direct: bool,
 }
 
 impl Schedule<'_> {
@@ -81,8 +78,9 @@ impl Schedule<'_> {
         rec.barrier();
     }
 
-    /// The gathering integrals of level `l`, batch by batch.
-    pub fn gather(&self, rec: &mut Recorder, l: u32, active: Active) {
+    /// The gathering integrals of level `l`, batch by batch; with `exact_direct` the hits
+    /// read the exact direct irradiance (the first bounce under `exact_first_bounce`).
+    pub fn gather(&self, rec: &mut Recorder, l: u32, active: Active, exact_direct: bool) {
         let r = self.level(l);
         rec.fill(&self.res.state.active_flag, 4 * r.start as u64, 4 * r.len() as u64, 0);
         rec.barrier();
@@ -93,7 +91,7 @@ impl Schedule<'_> {
             batch_first: 0,
             from_list: (active != Active::Level) as u32,
             count_slot: NONE,
-            exact_direct: self.exact_direct as u32,
+            exact_direct: exact_direct as u32,
         };
         match active {
             Active::Level | Active::Listed(_) => {
@@ -211,10 +209,10 @@ impl Schedule<'_> {
     /// A whole bounce gathering levels `0..g`: levels 0 and 1 in batches of known size,
     /// the finer ones in as many device-sized batches as they could need; then the level
     /// counters and energies are copied for the host ([`Resources::readback`]).
-    pub fn bounce(&self, rec: &mut Recorder, g: u32) {
+    pub fn bounce(&self, rec: &mut Recorder, g: u32, exact_direct: bool) {
         for l in 0..g {
             let active = if l <= 1 { Active::Level } else { Active::OnDevice };
-            self.gather(rec, l, active);
+            self.gather(rec, l, active, exact_direct);
             self.refine(rec, l, l >= 1 && l + 1 < g, true);
         }
         self.fill(rec, g);

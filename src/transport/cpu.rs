@@ -125,9 +125,6 @@ pub struct CpuBackend<'a> {
     is_active: Vec<bool>,
     active: Vec<u32>,
     mean_direct: Vec3,
-    /// The next gather belongs to the first bounce (set by `init_unshot`, cleared by
-    /// `end_bounce`).
-    first_bounce: bool,
     progress: Progress,
 }
 
@@ -147,7 +144,6 @@ impl<'a> CpuBackend<'a> {
             is_active: vec![false; n],
             active: Vec::new(),
             mean_direct: Vec3::ZERO,
-            first_bounce: false,
             progress: progress.clone(),
         }
     }
@@ -221,7 +217,6 @@ impl Backend for CpuBackend<'_> {
 
     fn init_unshot(&mut self) -> Result<()> {
         self.indirect.fill(Vec4::ZERO);
-        self.first_bounce = true;
         if !self.p.variant.is_delta() {
             self.unshot.copy_from_slice(&self.direct);
             return Ok(());
@@ -254,10 +249,9 @@ impl Backend for CpuBackend<'_> {
         Ok(())
     }
 
-    fn gather(&mut self, level: u32) -> Result<u32> {
+    fn gather(&mut self, level: u32, exact: bool) -> Result<u32> {
         let list = self.active_list(level);
         let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
-        let exact = self.first_bounce && p.exact_first_bounce;
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
         let results: Vec<Gathered> = list
             .par_iter()
@@ -338,7 +332,6 @@ impl Backend for CpuBackend<'_> {
     }
 
     fn end_bounce(&mut self) -> Result<Energy> {
-        self.first_bounce = false;
         for (e, n) in self.indirect.iter_mut().zip(&self.next) {
             *e += *n;
         }

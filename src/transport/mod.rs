@@ -58,8 +58,10 @@ pub trait Backend {
     /// Un-shot := `E_d` in the variant's representation; indirect := 0.
     fn init_unshot(&mut self) -> Result<()>;
     /// Gathering integrals for the active nodes of `level` (all nodes on levels 0 and 1,
-    /// else those activated by `refine(level − 1, true)`); returns their count.
-    fn gather(&mut self, level: u32) -> Result<u32>;
+    /// else those activated by `refine(level − 1, true)`); returns their count. With
+    /// `exact_direct` (the first bounce under `exact_first_bounce`) the hits read the
+    /// exact direct irradiance instead of the sender level.
+    fn gather(&mut self, level: u32, exact_direct: bool) -> Result<u32>;
     /// Prediction, oracle and new values of `level`; with `activate`, the children of the
     /// refined nodes become the active set of `level + 1`.
     fn refine(&mut self, level: u32, activate: bool) -> Result<Refined>;
@@ -73,7 +75,7 @@ pub trait Backend {
     /// GPU: one submission, the active sets' sizes never leave the device until the end).
     /// It must compute exactly what [`bounce`]'s stages compute, gathering every level
     /// `0..gather_levels()` (an empty level's integrals are 0).
-    fn bounce_fused(&mut self) -> Result<Option<FusedBounce>> {
+    fn bounce_fused(&mut self, _exact_direct: bool) -> Result<Option<FusedBounce>> {
         Ok(None)
     }
     /// Per-kernel times in seconds (GPU timestamps), if the backend measures them.
@@ -236,7 +238,9 @@ pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<Bou
         bounce: k,
         ..Default::default()
     };
-    let e = if let Some(f) = backend.bounce_fused()? {
+    // In the first bounce the un-shot field is E_d itself: read exactly at the hits.
+    let exact_direct = k == 1 && p.exact_first_bounce;
+    let e = if let Some(f) = backend.bounce_fused(exact_direct)? {
         for l in 0..g {
             if b.stops_at(l, f.integrals[l as usize]) {
                 break;
@@ -251,7 +255,7 @@ pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<Bou
             if b.stops_at(l, next_active) {
                 break;
             }
-            b.integrals_per_level.push(backend.gather(l)?);
+            b.integrals_per_level.push(backend.gather(l, exact_direct)?);
             let r = backend.refine(l, l >= 1 && l + 1 < g)?;
             b.refined_per_level.push(r.refined);
             next_active = r.activated;
