@@ -2,7 +2,8 @@
 // (ALGORITHM.md §5): a gathered node is refined when |g − pred| exceeds
 // max(ε_rel |g|, ε_abs mean E_d) + z σ in any channel. Inactive nodes take the prediction
 // (modified) or a zero delta (original). With activate = 1 the children of refined nodes are
-// marked for compaction. counters[COUNTERS_PER_LEVEL l + COUNTER_REFINED] counts refined nodes.
+// marked for compaction, and so are the sparse children (at most sparse_parents parents) of
+// lit nodes that are not refined (ALGORITHM.md §5.5). counters[COUNTERS_PER_LEVEL l + COUNTER_REFINED] counts refined nodes.
 // CPU twins: transport::cpu::oracle and CpuBackend::refine.
 #version 460
 #include "layout.glsl"
@@ -33,21 +34,35 @@ void main() {
     bool is_active = g.active_flag.v[j] == 1u;
     vec3 pred = g.pred.v[j].xyz;
     bool delta = VARIANT == VARIANT_ORIGINAL;
+    vec3 mean_direct = vec3(g.energy.v[ENERGY_MEAN_DIRECT], g.energy.v[ENERGY_MEAN_DIRECT + 1u], g.energy.v[ENERGY_MEAN_DIRECT + 2u]);
+    vec3 value;
+    bool refine = false;
     if (!is_active) {
         g.next.v[j] = delta ? vec4(0.0) : vec4(pred, 0.0);
+        value = pred;
+    } else {
+        g.next.v[j] = vec4(delta ? m - pred : m, 0.0);
+        value = m;
+        vec3 err = g.gathered_err.v[j].xyz;
+        vec3 tau = max(abs(m) * g.eps_rel, mean_direct * g.eps_abs) + err * g.noise_z;
+        refine = any(greaterThan(abs(m - pred), tau));
+    }
+    if (refine) {
+        atomicAdd(g.counters.v[COUNTERS_PER_LEVEL * pc.level + COUNTER_REFINED], 1u);
+    }
+    if (pc.activate == 0u) {
         return;
     }
-    g.next.v[j] = vec4(delta ? m - pred : m, 0.0);
-    vec3 err = g.gathered_err.v[j].xyz;
-    vec3 mean_direct = vec3(g.energy.v[ENERGY_MEAN_DIRECT], g.energy.v[ENERGY_MEAN_DIRECT + 1u], g.energy.v[ENERGY_MEAN_DIRECT + 2u]);
-    vec3 tau = max(abs(m) * g.eps_rel, mean_direct * g.eps_abs) + err * g.noise_z;
-    if (any(greaterThan(abs(m - pred), tau))) {
-        atomicAdd(g.counters.v[COUNTERS_PER_LEVEL * pc.level + COUNTER_REFINED], 1u);
-        if (pc.activate == 1u) {
-            uint a = g.child_offset.v[j];
-            uint b = g.child_offset.v[j + 1u];
-            for (uint k = a; k < b; k++) {
-                g.child_flag.v[g.children.v[k]] = 1u;
+    // A refined node activates its children; a lit one that is not refined still activates
+    // its sparse children (at most sparse_parents parents; CpuBackend::refine).
+    bool sparse = !refine && g.sparse_parents > 0u && any(greaterThan(value, mean_direct * g.eps_abs));
+    if (refine || sparse) {
+        uint a = g.child_offset.v[j];
+        uint b = g.child_offset.v[j + 1u];
+        for (uint k = a; k < b; k++) {
+            uint c = g.children.v[k];
+            if (refine || g.parent_offset.v[c + 1u] - g.parent_offset.v[c] <= g.sparse_parents) {
+                g.child_flag.v[c] = 1u;
             }
         }
     }

@@ -83,6 +83,14 @@ pub struct SolverParams {
     pub final_gather: u32,
     /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
     pub final_gather_pixels: u32,
+    /// A node with at most this many parents is gathered whenever a parent carries light
+    /// (a value above the oracle's absolute floor), instead of taking its parents' weighted
+    /// mean: its surface is narrower than the parent level resolves (a ledge, a strip, the
+    /// edge of a ceiling), and their mean is not the light such a strip catches
+    /// (`ALGORITHM.md` §5.5). Default 0, off (the paper's oracle): 3 brings Sponza's
+    /// median from 0.970 to 0.973 for 1.24× its probe time, and costs the Cornell box 1.7×
+    /// for nothing. Absolute hierarchies only.
+    pub sparse_parents: u32,
     /// Support `h_l = kappa * r_l`.
     pub kappa: f32,
     /// Weight of the normal difference in the distance `δ`.
@@ -132,6 +140,7 @@ impl Default for SolverParams {
             output_level: None,
             final_gather: 1024,
             final_gather_pixels: 0,
+            sparse_parents: 0,
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,
@@ -187,6 +196,7 @@ impl SolverParams {
         range("output_level", self.output_level(), 0, self.levels - 1)?;
         range("final_gather", self.final_gather, 0, 1 << 16)?;
         range("final_gather_pixels", self.final_gather_pixels, 0, 1 << 16)?;
+        range("sparse_parents", self.sparse_parents, 0, 1 << 16)?;
         range("max_candidates", self.max_candidates, 1, 200_000_000)?;
         range("reach_paths", self.reach_paths, 1024, 1 << 28)?;
         range("reach_bounces", self.reach_bounces, 1, 64)?;

@@ -18,6 +18,7 @@ use glam::Vec3;
 use meshrad::bench::area_probes;
 use meshrad::metrics::indirect_error;
 use meshrad::params::SolverParams;
+use meshrad::progress::Progress;
 use meshrad::reference::{self, ReferenceOptions};
 use meshrad::transport::cpu::node_world;
 use meshrad::transport::readout::Readout;
@@ -150,8 +151,10 @@ fn gallery_keeps_its_indirect_light() {
 /// at the node centres). Gathers next to the thin strip are noisy (σ/g 10–15 % at 512
 /// rays), and with the oracle's noise allowance at 2 standard errors (the value Table 2
 /// was reproduced with) the nodes there are not refined and take their parents'
-/// flattened prediction: 0.83 of the light. The test fails when that returns at the
-/// defaults, and checks that it still sees it at 2.
+/// flattened prediction: 0.83 of the light. A noise allowance of 1 (the default) closes
+/// most of it, and so would gathering the cornice's sparse nodes (`sparse_parents`). The
+/// test fails when that returns at the defaults, and checks that the paper's oracle
+/// still shows it.
 #[test]
 fn cornice_light_reaches_the_wall_above() {
     let dir = common::tmpdir();
@@ -167,9 +170,12 @@ fn cornice_light_reaches_the_wall_above() {
     let path = dir.path().join("c.toml");
     std::fs::write(&path, toml).unwrap();
     let mut ratios = Vec::new();
-    for noise_z in [SolverParams::default().noise_z, 2.0] {
+    let d = SolverParams::default();
+    // The defaults, then the paper's oracle (noise allowance 2, no sparse-node gathering).
+    for (noise_z, sparse) in [(d.noise_z, d.sparse_parents), (2.0, 0)] {
         let (scene, mut p) = common::load(&path, &[("bounces", "1"), ("stop_threshold", "0.0")]);
         p.noise_z = noise_z;
+        p.sparse_parents = sparse;
         let (h, sol) = common::solve_cpu(&scene, &p);
         // Nodes of every level on the wall's face within 0.3 above the cornice's top.
         let picked: Vec<(Vec3, Vec3, f64)> = (0..h.nodes.len())
@@ -192,14 +198,15 @@ fn cornice_light_reaches_the_wall_above() {
         let est: f64 = picked.iter().map(|q| q.2).sum();
         let want: f64 = refs.iter().map(|r| r.mean.x).sum();
         println!(
-            "CORNICE noise_z {noise_z}: {} nodes, {} integrals, estimate/reference {:.3}",
+            "CORNICE noise_z {noise_z}, sparse_parents {sparse}: {} nodes, {} integrals, estimate/reference {:.3}",
             picked.len(),
             sol.stats.integrals,
             est / want
         );
         ratios.push(est / want);
     }
-    // Measured: 0.96 at the defaults (noise_z 1), 0.83 at 2.
+    // Measured: 0.959 at the defaults (noise_z 1), 0.83 at the paper's; 0.983 with
+    // sparse_parents 3 as well, 0.952 with sparse_parents 3 at noise_z 2.
     assert!(
         (0.93..=1.07).contains(&ratios[0]),
         "the first bounce on the wall above the cornice: estimate/reference {:.3}",
@@ -207,8 +214,97 @@ fn cornice_light_reaches_the_wall_above() {
     );
     assert!(
         ratios[1] < ratios[0] - 0.05,
-        "noise_z 2 no longer flattens the peak ({:.3} against {:.3}): the test lost its case",
+        "the paper's oracle no longer flattens the peak ({:.3} against {:.3}): the test lost its case",
         ratios[1],
         ratios[0]
+    );
+}
+
+/// The faces narrower than the coarser levels resolve (the roof's front edge, the
+/// columns' sides, the slab's rim): their nodes have at most a few parents, and where the
+/// oracle trusts the pull-down they take the parents' weighted mean, which comes from the
+/// wider faces around them rather than from the light the strip itself catches: here
+/// too much (1.08 of the reference), on Sponza's ceiling edges too little (0.88). With
+/// `sparse_parents` (3 here; off by default, for its cost) they are gathered wherever a
+/// parent is lit. The nodes compared are
+/// the lit sparse nodes that the paper's oracle (`sparse_parents = 0`) leaves to the
+/// pull-down; their first bounce against the reference's one-bounce term at the node
+/// centres. The test fails when a sparse node with a lit parent is not gathered or their
+/// light is off again, and checks that with the mechanism off it is off (the case is
+/// still a case).
+#[test]
+fn narrow_faces_get_their_light() {
+    use meshrad::transport::cpu::CpuBackend;
+    let dir = common::tmpdir();
+    let path = write_gallery(dir.path());
+    let (scene, mut p) = common::load(&path, &[("bounces", "1"), ("stop_threshold", "0.0")]);
+    let k = 3;
+    let h = meshrad::Hierarchy::build(&scene, &p, &Progress::hidden()).unwrap();
+    let mut values = Vec::new();
+    let mut picked: Vec<usize> = Vec::new();
+    for sparse in [0, k] {
+        p.sparse_parents = sparse;
+        let mut b = CpuBackend::new(&scene, &h, &p, &Progress::hidden());
+        let sol = meshrad::transport::solve(&p, &mut b, &Progress::hidden()).unwrap();
+        let l0 = h.level_range(0);
+        let mean_direct = sol.values.direct[l0.clone()].iter().map(|v| v.x as f64).sum::<f64>() / l0.len() as f64;
+        let floor = mean_direct * p.eps_abs as f64;
+        let lit_parent = |c: usize| {
+            h.parents_of(c)
+                .iter()
+                .any(|q| sol.values.indirect[q.node as usize].x as f64 > floor)
+        };
+        if sparse == 0 {
+            picked = (h.level_range(1).end..h.nodes.len())
+                .filter(|&c| h.parents_of(c).len() <= k as usize && b.gathered(c).is_none() && lit_parent(c))
+                .collect();
+        } else {
+            // The mechanism: every sparse node with a lit parent is gathered.
+            for c in h.level_range(1).end..h.nodes.len() {
+                if h.parents_of(c).len() <= k as usize && lit_parent(c) {
+                    assert!(
+                        b.gathered(c).is_some(),
+                        "sparse node {c} with a lit parent was not gathered"
+                    );
+                }
+            }
+        }
+        values.push(
+            picked
+                .iter()
+                .map(|&j| sol.values.indirect[j].x as f64)
+                .collect::<Vec<_>>(),
+        );
+    }
+    assert!(
+        picked.len() >= 100,
+        "only {} sparse lit nodes left to the pull-down",
+        picked.len()
+    );
+    let step = picked.len().div_ceil(300);
+    let idx: Vec<usize> = (0..picked.len()).step_by(step).collect();
+    let pts: Vec<_> = idx.iter().map(|&i| node_world(&scene, &h, picked[i])).collect();
+    let opts = ReferenceOptions {
+        samples: 2048,
+        max_bounces: 1,
+        ..Default::default()
+    };
+    let refs = reference::indirect_many(&scene, &pts, &opts);
+    let want: f64 = refs.iter().map(|r| r.mean.x).sum();
+    let ratio = |v: &[f64]| idx.iter().map(|&i| v[i]).sum::<f64>() / want;
+    let (off, on) = (ratio(&values[0]), ratio(&values[1]));
+    println!(
+        "NARROW {} sparse lit nodes ({} compared): estimate/reference {off:.3} with sparse_parents 0, {on:.3} with {k}",
+        picked.len(),
+        idx.len()
+    );
+    // Measured: 1.000 with the mechanism, 1.083 without (2392 nodes, 299 compared).
+    assert!(
+        (0.95..=1.05).contains(&on),
+        "the first bounce at the narrow faces: estimate/reference {on:.3}"
+    );
+    assert!(
+        (off - 1.0).abs() > (on - 1.0).abs() + 0.03,
+        "the pull-down is no longer off at these nodes ({off:.3} against {on:.3}): the test lost its case"
     );
 }

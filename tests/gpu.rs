@@ -190,7 +190,9 @@ fn kernels_of_a_gather_match_cpu() {
 #[test]
 fn kernels_of_the_refinement_match_cpu() {
     for variant in Variant::ALL {
-        let (s, p) = cornell(4, 32, variant);
+        let (s, mut p) = cornell(4, 32, variant);
+        // With the sparse children of lit nodes activated too (kernel oracle).
+        p.sparse_parents = 3;
         let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
         let ctx = context();
         let mut g = GpuBackend::new(ctx.clone(), &s, &h, &p).unwrap();
@@ -199,6 +201,7 @@ fn kernels_of_the_refinement_match_cpu() {
             b.direct().unwrap();
             b.init_unshot().unwrap();
         }
+        let mut activated = 0;
         for level in 0..3u32 {
             let (ng, nc) = (
                 g.gather(level, p.exact_first_bounce).unwrap(),
@@ -211,6 +214,9 @@ fn kernels_of_the_refinement_match_cpu() {
                 rg, rc,
                 "{variant:?}: refined and activated nodes of level {level} (oracle, compact)"
             );
+            if activate {
+                activated = rc.activated;
+            }
             let next = g.read_state(State::Next).unwrap();
             for j in h.level_range(level as usize) {
                 let want = c.state().2[j].xyz();
@@ -246,6 +252,24 @@ fn kernels_of_the_refinement_match_cpu() {
             (err2 / ref2).sqrt()
         );
         assert_eq!(ctx.validation_errors(), 0);
+        // The activations compared include sparse children of lit nodes (sparse_parents):
+        // without them level 2 gets fewer integrals.
+        if !variant.is_delta() {
+            let mut p0 = p.clone();
+            p0.sparse_parents = 0;
+            let mut c0 = CpuBackend::new(&s, &h, &p0, &Progress::hidden());
+            c0.direct().unwrap();
+            c0.init_unshot().unwrap();
+            c0.gather(0, p0.exact_first_bounce).unwrap();
+            c0.refine(0, false).unwrap();
+            c0.gather(1, p0.exact_first_bounce).unwrap();
+            let r0 = c0.refine(1, true).unwrap();
+            assert!(
+                r0.activated < activated,
+                "{variant:?}: sparse_parents activated nothing ({} against {activated}): the test does not exercise it",
+                r0.activated
+            );
+        }
     }
 }
 

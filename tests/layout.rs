@@ -206,7 +206,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
         noise_z,
         levels,
         sender_level,
-        pad0
+        sparse_parents
     );
     // Each kernel's push constants (one block per kernel; the four kernels of a gathering
     // batch share GatherPush).

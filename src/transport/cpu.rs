@@ -293,8 +293,19 @@ impl Backend for CpuBackend<'_> {
             .collect();
         let mut refined = 0;
         let mut flags = vec![false; if activate { self.h.nodes.len() } else { 0 }];
+        let sparse = if delta { 0 } else { self.p.sparse_parents as usize };
+        let floor = self.mean_direct * self.p.eps_abs;
         for (j, (v, r)) in range.zip(out) {
             self.next[j] = v;
+            // A lit node's sparse children are gathered even where the oracle trusts the
+            // pull-down (kernel `oracle` does the same).
+            if activate && sparse > 0 && !r && v.xyz().cmpgt(floor).any() {
+                for &c in self.h.children_of(j) {
+                    if self.h.parents_of(c as usize).len() <= sparse {
+                        flags[c as usize] = true;
+                    }
+                }
+            }
             if r {
                 refined += 1;
                 if activate {
