@@ -522,11 +522,12 @@ pub fn csv(rows: &[Row]) -> String {
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.4},{:.4},{:.4},{},{},{:.4},{:.6},{:.4},{}",
-            r.scene,
+            r.scene.replace(',', ";"),
             r.method,
             r.backend.replace(',', ";"),
             r.variant,
-            r.label,
+            // "LABEL, basis read" would add a column.
+            r.label.replace(',', ";"),
             r.rays,
             r.levels,
             r.coarsest,
@@ -590,5 +591,42 @@ pub fn group(r: &Row) -> String {
         "path tracing".into()
     } else {
         format!("{} {}", r.variant, if r.backend == "cpu" { "cpu" } else { "gpu" })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn csv_rows_have_the_header_s_columns() {
+        let row = Row {
+            scene: "a,b".into(),
+            method: "meshrad".into(),
+            backend: "cpu".into(),
+            variant: "approx".into(),
+            label: "defaults, basis read".into(),
+            rays: 512,
+            levels: 6,
+            coarsest: 226,
+            gather_levels: 6,
+            sender_level: 5,
+            eps_rel: 0.1,
+            seconds: 1.0,
+            seconds_output: 0.5,
+            seconds_kernels: 0.0,
+            seconds_hierarchy: 0.1,
+            integrals: 1,
+            rays_traced: 512,
+            error: ErrorStats::default(),
+            error_camera: ErrorStats::default(),
+            coverage: None,
+            pareto: false,
+        };
+        let text = csv(&[row]);
+        let lines: Vec<&str> = text.lines().collect();
+        let n = lines[0].split(',').count();
+        assert_eq!(lines[1].split(',').count(), n, "{text}");
+        assert!(lines[1].contains(",defaults; basis read,"), "{text}");
     }
 }
