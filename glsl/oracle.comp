@@ -2,8 +2,9 @@
 // (ALGORITHM.md §5): a gathered node is refined when |g − pred| exceeds
 // max(ε_rel |g|, ε_abs mean E_d) + z σ in any channel. Inactive nodes take the prediction
 // (modified) or a zero delta (original). With activate = 1 the children of refined nodes are
-// marked for compaction, and so are the sparse children (at most sparse_parents parents) of
-// lit nodes that are not refined (ALGORITHM.md §5.5). counters[COUNTERS_PER_LEVEL l + COUNTER_REFINED] counts refined nodes.
+// marked for compaction, and so are the sparse children (at most pc.sparse_parents parents,
+// SolverParams::sparse_parents in the bounces 1..=sparse_bounces) of lit nodes that are not
+// refined (ALGORITHM.md §5.5). counters[COUNTERS_PER_LEVEL l + COUNTER_REFINED] counts refined nodes.
 // CPU twins: transport::cpu::oracle and CpuBackend::refine.
 #version 460
 #include "layout.glsl"
@@ -15,6 +16,8 @@ layout(push_constant) uniform OraclePush {
     uint count; // nodes in the range
     uint level;    // the level of the range
     uint activate; // 1: mark the children of refined nodes for compaction
+    uint sparse_parents; // with activate: also the children with at most this many parents of lit nodes (0: off)
+    uint pad;
 } pc;
 
 layout(local_size_x = LINEAR_GROUP) in;
@@ -55,13 +58,13 @@ void main() {
     }
     // A refined node activates its children; a lit one that is not refined still activates
     // its sparse children (at most sparse_parents parents; CpuBackend::refine).
-    bool sparse = !refine && g.sparse_parents > 0u && any(greaterThan(value, mean_direct * g.eps_abs));
+    bool sparse = !refine && pc.sparse_parents > 0u && any(greaterThan(value, mean_direct * g.eps_abs));
     if (refine || sparse) {
         uint a = g.child_offset.v[j];
         uint b = g.child_offset.v[j + 1u];
         for (uint k = a; k < b; k++) {
             uint c = g.children.v[k];
-            if (refine || g.parent_offset.v[c + 1u] - g.parent_offset.v[c] <= g.sparse_parents) {
+            if (refine || g.parent_offset.v[c + 1u] - g.parent_offset.v[c] <= pc.sparse_parents) {
                 g.child_flag.v[c] = 1u;
             }
         }

@@ -87,10 +87,18 @@ pub struct SolverParams {
     /// (a value above the oracle's absolute floor), instead of taking its parents' weighted
     /// mean: its surface is narrower than the parent level resolves (a ledge, a strip, the
     /// edge of a ceiling), and their mean is not the light such a strip catches
-    /// (`ALGORITHM.md` §5.5). Default 0, off (the paper's oracle): 3 brings Sponza's
-    /// median from 0.970 to 0.973 for 1.24× its probe time, and costs the Cornell box 1.7×
-    /// for nothing. Absolute hierarchies only.
+    /// (`ALGORITHM.md` §5.5). Default 3: Sponza's median estimate/reference 0.970 → 0.973;
+    /// 0 is the paper's oracle. Absolute hierarchies only.
     pub sparse_parents: u32,
+    /// The bounces `1..=sparse_bounces` in which `sparse_parents` applies; the later ones
+    /// use the paper's oracle.
+    pub sparse_bounces: u32,
+    /// MiB the gathering rays' links may take: the first time a node is gathered with the
+    /// sender read, each ray keeps its sender node and albedo, and later bounces gather
+    /// over them instead of tracing (`approx` only; same results bit for bit; `ALGORITHM.md`
+    /// §5.6). Nodes that find it full are traced every time. Also bounded by what the
+    /// memory limit leaves. 0: off.
+    pub link_memory: u32,
     /// Support `h_l = kappa * r_l`.
     pub kappa: f32,
     /// Weight of the normal difference in the distance `δ`.
@@ -140,7 +148,9 @@ impl Default for SolverParams {
             output_level: None,
             final_gather: 1024,
             final_gather_pixels: 0,
-            sparse_parents: 0,
+            sparse_parents: 3,
+            sparse_bounces: 10_000,
+            link_memory: 2048,
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,
@@ -197,6 +207,8 @@ impl SolverParams {
         range("final_gather", self.final_gather, 0, 1 << 16)?;
         range("final_gather_pixels", self.final_gather_pixels, 0, 1 << 16)?;
         range("sparse_parents", self.sparse_parents, 0, 1 << 16)?;
+        range("sparse_bounces", self.sparse_bounces, 0, 10_000)?;
+        range("link_memory", self.link_memory, 0, 1 << 24)?;
         range("max_candidates", self.max_candidates, 1, 200_000_000)?;
         range("reach_paths", self.reach_paths, 1024, 1 << 28)?;
         range("reach_bounces", self.reach_bounces, 1, 64)?;

@@ -209,7 +209,11 @@ fn kernels_of_the_refinement_match_cpu() {
             );
             assert_eq!(ng, nc, "{variant:?}: active set of level {level} (kernel compact)");
             let activate = level == 1; // level 2 is the last gathered level here
-            let (rg, rc) = (g.refine(level, activate).unwrap(), c.refine(level, activate).unwrap());
+            let k = p.sparse_parents;
+            let (rg, rc) = (
+                g.refine(level, activate, k).unwrap(),
+                c.refine(level, activate, k).unwrap(),
+            );
             assert_eq!(
                 rg, rc,
                 "{variant:?}: refined and activated nodes of level {level} (oracle, compact)"
@@ -261,9 +265,9 @@ fn kernels_of_the_refinement_match_cpu() {
             c0.direct().unwrap();
             c0.init_unshot().unwrap();
             c0.gather(0, p0.exact_first_bounce).unwrap();
-            c0.refine(0, false).unwrap();
+            c0.refine(0, false, 0).unwrap();
             c0.gather(1, p0.exact_first_bounce).unwrap();
-            let r0 = c0.refine(1, true).unwrap();
+            let r0 = c0.refine(1, true, 0).unwrap();
             assert!(
                 r0.activated < activated,
                 "{variant:?}: sparse_parents activated nothing ({} against {activated}): the test does not exercise it",

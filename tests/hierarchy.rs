@@ -205,3 +205,50 @@ fn gathered_light_finds_a_value_at_every_hit() {
     println!("COVERAGE every support clipped away: {c:?}");
     assert!(c.light_lost > 0.99 && c.no_value_receiving > 10_000, "{c:?}");
 }
+
+/// Links (`transport::links`): later bounces gather over the rays' recorded sender nodes
+/// and albedos instead of tracing, and must give the traced answer bit for bit, with room
+/// for every node, with room for a few (the rest traced every bounce) and with none. The
+/// counts show that the links were used and that the full case ran out of room.
+#[test]
+fn links_give_the_traced_answer() {
+    let run = |link_memory: u32, rays: u32| {
+        let (s, mut p) = cornell(4);
+        p.rays = rays;
+        p.link_memory = link_memory;
+        p.stop_threshold = 1e-3;
+        let (_, sol) = common::solve_cpu(&s, &p);
+        (sol.values.indirect, sol.stats)
+    };
+    // 64 rays × 16 bytes = 1 KiB a node: 1 MiB holds 1024 nodes, fewer than the 1000+
+    // nodes levels 0–2 gather.
+    let (traced, st) = run(0, 64);
+    assert!(st.links.is_none(), "link_memory = 0 keeps no links");
+    assert!(
+        st.bounces.len() >= 4,
+        "the test needs several bounces: {}",
+        st.bounces.len()
+    );
+    for (mib, full) in [(2048, false), (1, true)] {
+        let (linked, st) = run(mib, 64);
+        let l = st.links.expect("links kept");
+        assert!(
+            linked == traced,
+            "link_memory {mib}: indirect differs from the traced solve"
+        );
+        assert!(
+            l.integrals_linked > if full { 0 } else { l.integrals_traced },
+            "link_memory {mib}: links served {} integrals, traced {}",
+            l.integrals_linked,
+            l.integrals_traced
+        );
+        assert_eq!(l.integrals_traced_full > 0, full, "link_memory {mib}: {l:?}");
+        assert!(l.bytes <= l.capacity_bytes, "{l:?}");
+        assert_eq!(l.bytes, l.nodes * 64 * meshrad::transport::links::LINK_BYTES);
+    }
+    // The other variants read more than one node at a hit: they keep no links.
+    let (s, mut p) = cornell(3);
+    p.variant = Variant::Modified;
+    p.rays = 16;
+    assert!(common::solve_cpu(&s, &p).1.stats.links.is_none());
+}

@@ -206,7 +206,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
         noise_z,
         levels,
         sender_level,
-        sparse_parents
+        pad0
     );
     // Each kernel's push constants (one block per kernel; the four kernels of a gathering
     // batch share GatherPush).
@@ -219,7 +219,16 @@ fn gpu_struct_offsets_match_the_host_structs() {
     check("DeltaPush", "g", offset_of!(DeltaPush, globals));
     same!(DeltaPush, "DeltaPush", first, count, level, init);
     check("OraclePush", "g", offset_of!(OraclePush, globals));
-    same!(OraclePush, "OraclePush", first, count, level, activate);
+    same!(
+        OraclePush,
+        "OraclePush",
+        first,
+        count,
+        level,
+        activate,
+        sparse_parents,
+        pad
+    );
     check("CompactPush", "g", offset_of!(CompactPush, globals));
     same!(CompactPush, "CompactPush", first, count, parent_level, pad0);
     check("EnergyPush", "g", offset_of!(EnergyPush, globals));

@@ -112,7 +112,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     float noise_z;
     uint levels;
     uint sender_level;
-    uint sparse_parents; // SolverParams::sparse_parents (0: off, and for the delta hierarchy)
+    uint pad0;
 };
 
 // Push constants are declared by each kernel (its own block, `<Name>Push`, mirrored by

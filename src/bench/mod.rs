@@ -223,7 +223,7 @@ pub fn measure(
         seconds_kernels: st.kernel_seconds.iter().map(|(_, t)| t).sum(),
         seconds_setup: setup,
         integrals: st.integrals,
-        rays: st.rays_traced,
+        rays: st.rays_gathered,
         values,
     };
     Ok((m, sol))

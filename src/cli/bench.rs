@@ -92,7 +92,7 @@ pub struct AccuracyArgs {
     defaults_only: bool,
     /// The error decomposition: each term switched off or to its exact form, one at a time
     /// (final gather, sender exact, sender finest, first bounce reconstructed, crevice off,
-    /// clip off, reach x8, sparse nodes gathered, oracle /3, series 1e-5, rays x4, nodes x2),
+    /// clip off, reach x8, sparse nodes pulled, oracle /3, series 1e-5, rays x4, nodes x2),
     /// instead of the sweep.
     #[arg(long)]
     decompose: bool,

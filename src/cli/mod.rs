@@ -390,13 +390,25 @@ fn print_stats(h: &Hierarchy, sol: &Solution, sec: &PhaseSeconds) {
             b.bounce, b.seconds, b.integrals_per_level, b.refined_per_level, b.unshot_ratio
         );
     }
-    let rays_s = s.rays_traced as f64 / s.seconds_bounces.max(1e-9);
+    let rays_s = s.rays_gathered as f64 / s.seconds_bounces.max(1e-9);
     eprintln!(
-        "integrals {}, rays {} ({:.2} Mrays/s over the bounces)",
+        "integrals {}, rays {} ({:.2} Mrays/s over the bounces), of them traced {}",
         s.integrals,
-        s.rays_traced,
-        rays_s / 1e6
+        s.rays_gathered,
+        rays_s / 1e6,
+        s.rays_traced
     );
+    if let Some(l) = &s.links {
+        eprintln!(
+            "links: {} nodes, {:.1} MiB of {:.0} MiB, {} integrals read from links, {} traced ({} with the links full)",
+            l.nodes,
+            l.bytes as f64 / (1 << 20) as f64,
+            l.capacity_bytes as f64 / (1 << 20) as f64,
+            l.integrals_linked,
+            l.integrals_traced,
+            l.integrals_traced_full
+        );
+    }
     for (k, t) in &s.kernel_seconds {
         eprintln!("kernel {k}: {:.4} s", t);
     }

@@ -240,8 +240,8 @@ impl Backend for GpuBackend<'_> {
         Ok(count)
     }
 
-    fn refine(&mut self, level: u32, activate: bool) -> Result<Refined> {
-        self.submit(|s, rec| s.refine(rec, level, activate, false))?;
+    fn refine(&mut self, level: u32, activate: bool, sparse: u32) -> Result<Refined> {
+        self.submit(|s, rec| s.refine(rec, level, activate, sparse, false))?;
         let c: Vec<u32> = self
             .res
             .state
@@ -269,9 +269,9 @@ impl Backend for GpuBackend<'_> {
 
     /// One bounce in one submission ([`Schedule::bounce`]); the counts and energies come
     /// back once, at the end.
-    fn bounce_fused(&mut self, exact_direct: bool) -> Result<Option<FusedBounce>> {
+    fn bounce_fused(&mut self, exact_direct: bool, sparse: u32) -> Result<Option<FusedBounce>> {
         let g = self.p.gather_levels();
-        self.submit(|s, rec| s.bounce(rec, g, exact_direct))?;
+        self.submit(|s, rec| s.bounce(rec, g, exact_direct, sparse))?;
         let bytes = self.res.readback.mapped()?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..LEVEL_COUNTER_BYTES as usize]);
         let e: Vec<f32> =

@@ -56,8 +56,7 @@ pub struct Globals {
     pub noise_z: f32,
     pub levels: u32,
     pub sender_level: u32,
-    /// `SolverParams::sparse_parents` (0 for the delta hierarchy).
-    pub sparse_parents: u32,
+    pub pad0: u32,
 }
 
 /// A ray as the kernels store it (32 bytes).

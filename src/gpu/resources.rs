@@ -298,6 +298,6 @@ fn globals(
         noise_z: p.noise_z,
         levels: h.levels,
         sender_level: p.sender_level,
-        sparse_parents: if p.variant.is_delta() { 0 } else { p.sparse_parents },
+        pad0: 0,
     }
 }

@@ -155,8 +155,9 @@ impl Schedule<'_> {
     }
 
     /// Prediction, oracle and new values of level `l`; with `activate`, the next level's
-    /// active set (and, with `next_on_device`, its batches' grids).
-    pub fn refine(&self, rec: &mut Recorder, l: u32, activate: bool, next_on_device: bool) {
+    /// active set (the sparse children of lit nodes with `sparse > 0`; and, with
+    /// `next_on_device`, its batches' grids).
+    pub fn refine(&self, rec: &mut Recorder, l: u32, activate: bool, sparse: u32, next_on_device: bool) {
         let r = self.level(l);
         let next = if activate { self.level(l + 1) } else { 0..0 };
         let st = &self.res.state;
@@ -171,7 +172,8 @@ impl Schedule<'_> {
             }
         }
         rec.barrier();
-        self.k.oracle.record(rec, r, l, activate);
+        let sparse = if self.delta { 0 } else { sparse };
+        self.k.oracle.record(rec, r, l, activate, sparse);
         rec.barrier();
         if activate {
             self.k.compact.record(rec, next.clone(), l);
@@ -209,11 +211,11 @@ impl Schedule<'_> {
     /// A whole bounce gathering levels `0..g`: levels 0 and 1 in batches of known size,
     /// the finer ones in as many device-sized batches as they could need; then the level
     /// counters and energies are copied for the host ([`Resources::readback`]).
-    pub fn bounce(&self, rec: &mut Recorder, g: u32, exact_direct: bool) {
+    pub fn bounce(&self, rec: &mut Recorder, g: u32, exact_direct: bool, sparse: u32) {
         for l in 0..g {
             let active = if l <= 1 { Active::Level } else { Active::OnDevice };
             self.gather(rec, l, active, exact_direct);
-            self.refine(rec, l, l >= 1 && l + 1 < g, true);
+            self.refine(rec, l, l >= 1 && l + 1 < g, sparse, true);
         }
         self.fill(rec, g);
         self.end_bounce(rec);

@@ -80,6 +80,9 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     pub scale: f32,
     pub report: LoadReport,
+    /// The run's resource limits; what they leave after the planned parts bounds the
+    /// transport's links (`transport::links`).
+    pub limits: Limits,
 }
 
 /// A surface point reached by a ray.
@@ -774,6 +777,7 @@ impl Builder {
             bounds: (lo, hi),
             scale,
             report: self.report,
+            limits: self.limits,
         })
     }
 }

@@ -5,6 +5,7 @@
 use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use rayon::prelude::*;
 
+use super::links::{self, Link, LinkStats, Links};
 use super::{reconstruct, Backend, Energy, NodeValues, Refined};
 use crate::error::Result;
 use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
@@ -45,6 +46,38 @@ pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize, lit: &mut [bool]) 
     e
 }
 
+/// Running sums of a Monte Carlo mean of RGB samples, in double precision; samples not
+/// added (misses) count as zero.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Estimator {
+    sum: glam::DVec3,
+    sum2: glam::DVec3,
+}
+
+impl Estimator {
+    #[inline]
+    pub fn add(&mut self, c: Vec3) {
+        let c = c.as_dvec3();
+        self.sum += c;
+        self.sum2 += c * c;
+    }
+
+    /// The mean over `n` samples and its standard error (unbiased sample variance).
+    pub fn finish(&self, n: usize) -> Gathered {
+        let nf = n.max(1) as f64;
+        let mean = self.sum / nf;
+        let var = if n > 1 {
+            ((self.sum2 / nf - mean * mean) * (nf / (nf - 1.0))).max(glam::DVec3::ZERO)
+        } else {
+            glam::DVec3::ZERO
+        };
+        Gathered {
+            mean: mean.as_vec3(),
+            std_err: (var / nf).as_vec3().map(f32::sqrt),
+        }
+    }
+}
+
 /// One gathering integral at node `j` (kernels `hemisphere`, `trace`, `reconstruct`,
 /// `reduce`): `(1/N) Σ_r ρ(y_r) ΔE(y_r)` over cosine-weighted Halton directions rotated
 /// by the integral's angle, with `ΔE` read from the sender level of `unshot` — or, with
@@ -60,38 +93,54 @@ pub fn gather_integral(
     j: usize,
     exact_direct: bool,
 ) -> Gathered {
+    trace_integral(scene, h, p, halton, unshot, j, exact_direct, None)
+}
+
+/// [`gather_integral`], recording each ray's link into `record` (the approximate
+/// reconstruction, not `exact_direct`; one entry per ray).
+#[allow(clippy::too_many_arguments)]
+pub fn trace_integral(
+    scene: &Scene,
+    h: &Hierarchy,
+    p: &SolverParams,
+    halton: &[Vec2],
+    unshot: &[Vec4],
+    j: usize,
+    exact_direct: bool,
+    mut record: Option<&mut [Link]>,
+) -> Gathered {
+    debug_assert!(record.is_none() || (p.variant == Variant::Approx && !exact_direct));
     let (x, n) = node_world(scene, h, j);
     let o = scene.offset(x, n);
     let (t, b) = onb(n);
     let phi0 = integral_rotation(p.seed, j as u32);
-    let mut sum = glam::DVec3::ZERO;
-    let mut sum2 = glam::DVec3::ZERO;
-    for &u in halton {
+    let sender = reconstruct::Sender::of(p);
+    let mut est = Estimator::default();
+    for (r, &u) in halton.iter().enumerate() {
         let d = cosine_direction(n, t, b, u, phi0);
         let ray = Ray { o, d };
-        if let Some(hit) = scene.intersect(&ray, f32::INFINITY) {
-            let s = scene.surface(&hit, d);
-            let e = if exact_direct {
-                scene.direct(s.p, s.n)
-            } else {
-                reconstruct::Sender::of(p).read(h, s.object as usize, s.p_obj, s.n_obj, unshot)
+        let Some(hit) = scene.intersect(&ray, f32::INFINITY) else {
+            continue;
+        };
+        let s = scene.surface(&hit, d);
+        let e = if exact_direct {
+            scene.direct(s.p, s.n)
+        } else if let Some(rec) = record.as_deref_mut() {
+            let node = reconstruct::approx_node(h, s.object as usize, sender.level, s.p_obj, s.n_obj, sender.cos_min);
+            rec[r] = match node {
+                Some(i) => Link {
+                    sender: i as u32,
+                    albedo: s.albedo,
+                },
+                None => Link::NONE,
             };
-            let c = (s.albedo * e).as_dvec3();
-            sum += c;
-            sum2 += c * c;
-        }
+            node.map_or(Vec3::ZERO, |i| unshot[i].xyz())
+        } else {
+            sender.read(h, s.object as usize, s.p_obj, s.n_obj, unshot)
+        };
+        est.add(s.albedo * e);
     }
-    let nf = halton.len() as f64;
-    let mean = sum / nf;
-    let var = if halton.len() > 1 {
-        ((sum2 / nf - mean * mean) * (nf / (nf - 1.0))).max(glam::DVec3::ZERO)
-    } else {
-        glam::DVec3::ZERO
-    };
-    Gathered {
-        mean: mean.as_vec3(),
-        std_err: (var / nf).as_vec3().map(f32::sqrt),
-    }
+    est.finish(halton.len())
 }
 
 /// The oracle (`ALGORITHM.md` §5): refine when the gathered value differs from the
@@ -125,6 +174,9 @@ pub struct CpuBackend<'a> {
     is_active: Vec<bool>,
     active: Vec<u32>,
     mean_direct: Vec3,
+    /// Each gathering ray traced once per solve (`links`); `None` where the variant's
+    /// reads depend on more than one node or `link_memory` is 0.
+    links: Option<Links>,
     progress: Progress,
 }
 
@@ -144,6 +196,11 @@ impl<'a> CpuBackend<'a> {
             is_active: vec![false; n],
             active: Vec::new(),
             mean_direct: Vec3::ZERO,
+            links: (p.variant == Variant::Approx && p.link_memory > 0).then(|| {
+                let left = scene.limits.max_memory as f64 - scene.report.planned_bytes;
+                let cap = ((p.link_memory as u64) << 20).min(left.max(0.0) as u64);
+                Links::new(n, p.rays as usize, cap)
+            }),
             progress: progress.clone(),
         }
     }
@@ -251,26 +308,46 @@ impl Backend for CpuBackend<'_> {
 
     fn gather(&mut self, level: u32, exact: bool) -> Result<u32> {
         let list = self.active_list(level);
+        // Links serve the sender reads; the exact first bounce traces and records nothing.
+        let links = self.links.as_mut().filter(|_| !exact);
+        let record = match links {
+            Some(l) => l.plan(&list),
+            None => vec![false; list.len()],
+        };
+        let links = self.links.as_ref().filter(|_| !exact);
         let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
-        let results: Vec<Gathered> = list
+        let results: Vec<(Gathered, Option<Box<[Link]>>)> = list
             .par_iter()
-            .map(|&j| {
-                let g = gather_integral(scene, h, p, halton, unshot, j as usize, exact);
+            .zip(&record)
+            .map(|(&j, &rec)| {
+                let j = j as usize;
+                let out = match links.and_then(|l| l.of(j)) {
+                    Some(l) => (links::gather(l, unshot), None),
+                    None if rec => {
+                        let mut buf = vec![Link::NONE; halton.len()].into_boxed_slice();
+                        let g = trace_integral(scene, h, p, halton, unshot, j, false, Some(&mut buf));
+                        (g, Some(buf))
+                    }
+                    None => (gather_integral(scene, h, p, halton, unshot, j, exact), None),
+                };
                 bar.inc(1);
-                g
+                out
             })
             .collect();
         bar.finish();
         self.is_active[h.level_range(level as usize)].fill(false);
-        for (&j, g) in list.iter().zip(results) {
+        for (&j, (g, rec)) in list.iter().zip(results) {
             self.gathered[j as usize] = g;
             self.is_active[j as usize] = true;
+            if let (Some(l), Some(rec)) = (self.links.as_mut(), rec) {
+                l.store(j as usize, rec);
+            }
         }
         Ok(list.len() as u32)
     }
 
-    fn refine(&mut self, level: u32, activate: bool) -> Result<Refined> {
+    fn refine(&mut self, level: u32, activate: bool, sparse: u32) -> Result<Refined> {
         let range = self.h.level_range(level as usize);
         let delta = self.p.variant.is_delta();
         let out: Vec<(Vec4, bool)> = range
@@ -293,7 +370,7 @@ impl Backend for CpuBackend<'_> {
             .collect();
         let mut refined = 0;
         let mut flags = vec![false; if activate { self.h.nodes.len() } else { 0 }];
-        let sparse = if delta { 0 } else { self.p.sparse_parents as usize };
+        let sparse = if delta { 0 } else { sparse as usize };
         let floor = self.mean_direct * self.p.eps_abs;
         for (j, (v, r)) in range.zip(out) {
             self.next[j] = v;
@@ -360,5 +437,9 @@ impl Backend for CpuBackend<'_> {
             direct: self.direct.clone(),
             indirect: self.indirect.clone(),
         })
+    }
+
+    fn link_stats(&self) -> Option<LinkStats> {
+        self.links.as_ref().map(|l| l.stats.clone())
     }
 }

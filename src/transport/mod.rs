@@ -7,6 +7,7 @@
 
 pub mod coverage;
 pub mod cpu;
+pub mod links;
 pub mod readout;
 pub mod reconstruct;
 
@@ -63,8 +64,10 @@ pub trait Backend {
     /// exact direct irradiance instead of the sender level.
     fn gather(&mut self, level: u32, exact_direct: bool) -> Result<u32>;
     /// Prediction, oracle and new values of `level`; with `activate`, the children of the
-    /// refined nodes become the active set of `level + 1`.
-    fn refine(&mut self, level: u32, activate: bool) -> Result<Refined>;
+    /// refined nodes become the active set of `level + 1`, and so do the children with at
+    /// most `sparse` parents of the lit nodes that are not refined (`sparse_parents` in
+    /// the bounces it applies to, else 0; ignored by the delta hierarchy).
+    fn refine(&mut self, level: u32, activate: bool, sparse: u32) -> Result<Refined>;
     /// Levels `from..m` without integrals: pull-down (modified) or zero deltas (original).
     fn fill(&mut self, from: u32) -> Result<()>;
     /// Indirect += new; un-shot := new.
@@ -75,12 +78,16 @@ pub trait Backend {
     /// GPU: one submission, the active sets' sizes never leave the device until the end).
     /// It must compute exactly what [`bounce`]'s stages compute, gathering every level
     /// `0..gather_levels()` (an empty level's integrals are 0).
-    fn bounce_fused(&mut self, _exact_direct: bool) -> Result<Option<FusedBounce>> {
+    fn bounce_fused(&mut self, _exact_direct: bool, _sparse: u32) -> Result<Option<FusedBounce>> {
         Ok(None)
     }
     /// Per-kernel times in seconds (GPU timestamps), if the backend measures them.
     fn kernel_times(&mut self) -> Vec<(String, f64)> {
         Vec::new()
+    }
+    /// What the links did (`links`), if the backend keeps them.
+    fn link_stats(&self) -> Option<links::LinkStats> {
+        None
     }
 }
 
@@ -127,6 +134,9 @@ pub struct SolveStats {
     pub seconds_bounces: f64,
     pub bounces: Vec<BounceStats>,
     pub integrals: u64,
+    /// Gathering rays the integrals stand for (integrals × rays), traced or read from links.
+    pub rays_gathered: u64,
+    /// Gathering rays actually traced: `rays_gathered` less those served by links.
     pub rays_traced: u64,
     pub stopped_early: Option<String>,
     /// Set when the bounce cap was reached before the un-shot energy fell below
@@ -137,6 +147,9 @@ pub struct SolveStats {
     /// Nodes lit by each light.
     pub nodes_lit_per_light: Vec<u32>,
     pub kernel_seconds: Vec<(String, f64)>,
+    /// The gathering rays' links: memory, nodes, integrals served (`links`); `None` where
+    /// the backend or the variant keeps none.
+    pub links: Option<links::LinkStats>,
 }
 
 /// The solved hierarchy values.
@@ -186,7 +199,7 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
         }
         let integrals: u64 = b.integrals_per_level.iter().map(|&n| n as u64).sum();
         stats.integrals += integrals;
-        stats.rays_traced += integrals * p.rays as u64;
+        stats.rays_gathered += integrals * p.rays as u64;
         let ratio = b.unshot_ratio;
         stats.bounces.push(b);
         if ratio < p.stop_threshold as f64 && k < p.bounces {
@@ -207,6 +220,9 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
     stats.seconds_bounces = all.elapsed().as_secs_f64();
     let values = backend.values()?;
     stats.kernel_seconds = backend.kernel_times();
+    stats.links = backend.link_stats();
+    let linked = stats.links.as_ref().map_or(0, |l| l.integrals_linked);
+    stats.rays_traced = stats.rays_gathered - linked * p.rays as u64;
     Ok(Solution {
         variant: p.variant,
         values,
@@ -240,7 +256,8 @@ pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<Bou
     };
     // In the first bounce the un-shot field is E_d itself: read exactly at the hits.
     let exact_direct = k == 1 && p.exact_first_bounce;
-    let e = if let Some(f) = backend.bounce_fused(exact_direct)? {
+    let sparse = if k <= p.sparse_bounces { p.sparse_parents } else { 0 };
+    let e = if let Some(f) = backend.bounce_fused(exact_direct, sparse)? {
         for l in 0..g {
             if b.stops_at(l, f.integrals[l as usize]) {
                 break;
@@ -256,7 +273,7 @@ pub fn bounce(backend: &mut dyn Backend, p: &SolverParams, k: u32) -> Result<Bou
                 break;
             }
             b.integrals_per_level.push(backend.gather(l, exact_direct)?);
-            let r = backend.refine(l, l >= 1 && l + 1 < g)?;
+            let r = backend.refine(l, l >= 1 && l + 1 < g, sparse)?;
             b.refined_per_level.push(r.refined);
             next_active = r.activated;
         }

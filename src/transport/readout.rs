@@ -7,7 +7,7 @@
 //! arch, across a shadow edge) no longer decides the answer, only the smoothed light that
 //! arrives from one bounce further away.
 
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 use crate::geom::rng::hash2;
 use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
@@ -15,6 +15,7 @@ use crate::geom::Ray;
 use crate::hierarchy::Hierarchy;
 use crate::params::SolverParams;
 use crate::scene::{Scene, Surface};
+use crate::transport::cpu::Estimator;
 use crate::transport::Solution;
 
 /// A value and its standard error (zero for the basis read directly).
@@ -105,8 +106,7 @@ impl<'a> Readout<'a> {
         let phi0 = integral_rotation(self.seed ^ 0x0f1a_6a7e, key);
         let (t, b) = onb(n);
         let o = self.scene.offset(x, n);
-        let mut sum = DVec3::ZERO;
-        let mut sum2 = DVec3::ZERO;
+        let mut est = Estimator::default();
         for &u in &self.halton {
             let d = cosine_direction(n, t, b, u, phi0);
             let Some(hit) = self.scene.intersect(&Ray { o, d }, f32::INFINITY) else {
@@ -117,20 +117,12 @@ impl<'a> Readout<'a> {
                 continue;
             }
             let e = self.scene.direct(s.p, s.n) + self.basis(&s);
-            let c = (s.albedo * e).as_dvec3();
-            sum += c;
-            sum2 += c * c;
+            est.add(s.albedo * e);
         }
-        let nf = self.halton.len() as f64;
-        let mean = sum / nf;
-        let var = if nf > 1.0 {
-            ((sum2 / nf - mean * mean) * (nf / (nf - 1.0))).max(DVec3::ZERO)
-        } else {
-            DVec3::ZERO
-        };
+        let g = est.finish(self.halton.len());
         Read {
-            mean: mean.as_vec3(),
-            std_err: (var / nf).as_vec3().map(f32::sqrt),
+            mean: g.mean,
+            std_err: g.std_err,
         }
     }
 }

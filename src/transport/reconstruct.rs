@@ -45,10 +45,12 @@ pub fn delta_sum(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[
     })
 }
 
-/// Approximate: the value of the first kd-tree leaf near `p` with an agreeing normal,
-/// falling back to coarser levels.
+/// Approximate: the global index of the first kd-tree leaf near `p` with an agreeing
+/// normal that passes its clip, falling back to coarser levels. It depends on the geometry
+/// alone, not on the values, so a gathering ray's sender node is the same in every bounce
+/// (`transport::links`).
 #[inline]
-pub fn approx(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4], cos_min: f32) -> Option<Vec3> {
+pub fn approx_node(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, cos_min: f32) -> Option<usize> {
     (0..=l).rev().find_map(|k| {
         let (nodes, splits, base) = h.level(o, k);
         let hk = h.support(o, k);
@@ -57,8 +59,15 @@ pub fn approx(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec
             let nj = Vec3::from(nd.normal);
             n.dot(nj) > cos_min && clip_ok(&h.clips[base + i], p - Vec3::from(nd.pos), nj, hk)
         };
-        kdtree::first_leaf(nodes, splits, p, hk, ok).map(|i| values[base + i].xyz())
+        kdtree::first_leaf(nodes, splits, p, hk, ok).map(|i| base + i)
     })
+}
+
+/// Approximate: the value of the first kd-tree leaf near `p` with an agreeing normal,
+/// falling back to coarser levels.
+#[inline]
+pub fn approx(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4], cos_min: f32) -> Option<Vec3> {
+    approx_node(h, o, l, p, n, cos_min).map(|j| values[j].xyz())
 }
 
 /// How the transport reads un-shot energy at hit points: the variant's reconstruction

@@ -1,0 +1,154 @@
+//! Links: each gathering ray traced once per solve (`ALGORITHM.md` §5.6).
+//!
+//! A node's integral casts the same rays in every bounce: the directions are the Halton
+//! points rotated by an angle that depends on the seed and the node alone (§5.2), so the
+//! hits are the same. Under the approximate reconstruction the node a hit reads is the
+//! same too: the first kd-tree leaf that passes the normal and clip tests depends on the
+//! geometry, not on the values (`reconstruct::approx_node`). So the first time a node is
+//! gathered with the sender read, each of its rays keeps a link, the sender node and the
+//! albedo at the hit, and every later gather of that node is `(1/N) Σ ρ_r U[sender_r]`
+//! over its links: no ray, no search, and bit for bit the sum the traced integral makes
+//! (the same products added in the same order; a miss or a hit without a value adds
+//! nothing either way).
+//!
+//! The links' memory is bounded (`link_memory`, and a quarter of the run's memory limit);
+//! nodes that find it full are traced in every bounce, as without links. The first bounce
+//! under `exact_first_bounce` reads `E_d` by shadow rays and records nothing: the nodes
+//! that only the first bounce gathers never pay for links.
+
+use glam::{Vec3, Vec4, Vec4Swizzles};
+use serde::Serialize;
+
+use super::cpu::{Estimator, Gathered};
+
+/// A link's sender when the ray escaped or its hit reconstructs to no value.
+pub const NO_SENDER: u32 = u32::MAX;
+
+/// One gathering ray's hit as the later bounces read it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Link {
+    /// Global index of the node the hit reads (`NO_SENDER`: adds nothing).
+    pub sender: u32,
+    /// Albedo at the hit.
+    pub albedo: Vec3,
+}
+
+impl Link {
+    /// A ray that adds nothing.
+    pub const NONE: Link = Link {
+        sender: NO_SENDER,
+        albedo: Vec3::ZERO,
+    };
+}
+
+/// Bytes one link takes.
+pub const LINK_BYTES: u64 = std::mem::size_of::<Link>() as u64;
+
+/// What the links did in a solve (`stats.json`, `solve.links`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct LinkStats {
+    /// The most bytes the links may take.
+    pub capacity_bytes: u64,
+    /// Bytes they hold after the solve.
+    pub bytes: u64,
+    /// Nodes whose rays are linked.
+    pub nodes: u64,
+    /// Integrals read from links (no ray traced).
+    pub integrals_linked: u64,
+    /// Integrals traced that read the sender level (each records links while there is room).
+    pub integrals_traced: u64,
+    /// Of those, integrals traced because the links were full.
+    pub integrals_traced_full: u64,
+}
+
+impl LinkStats {
+    /// Fraction of the sender-reading integrals served by links.
+    pub fn hit_rate(&self) -> f64 {
+        let all = self.integrals_linked + self.integrals_traced;
+        if all == 0 {
+            0.0
+        } else {
+            self.integrals_linked as f64 / all as f64
+        }
+    }
+}
+
+/// The links of a solve, per node.
+pub struct Links {
+    rays: usize,
+    per_node: Vec<Option<Box<[Link]>>>,
+    max_nodes: u64,
+    pub stats: LinkStats,
+}
+
+impl Links {
+    /// Room for `capacity_bytes` of links of `rays` rays each, over `nodes` nodes.
+    pub fn new(nodes: usize, rays: usize, capacity_bytes: u64) -> Self {
+        let per = (rays as u64 * LINK_BYTES).max(1);
+        Links {
+            rays,
+            per_node: (0..nodes).map(|_| None).collect(),
+            max_nodes: capacity_bytes / per,
+            stats: LinkStats {
+                capacity_bytes,
+                ..Default::default()
+            },
+        }
+    }
+
+    /// Drops every link (a new geometry or a new hierarchy).
+    pub fn clear(&mut self) {
+        self.per_node.iter_mut().for_each(|l| *l = None);
+        self.stats = LinkStats {
+            capacity_bytes: self.stats.capacity_bytes,
+            ..Default::default()
+        };
+    }
+
+    /// The links of node `j`, if it has them.
+    #[inline]
+    pub fn of(&self, j: usize) -> Option<&[Link]> {
+        self.per_node[j].as_deref()
+    }
+
+    /// For each node of `list` in order: whether it records links when traced (it has
+    /// none yet and there is room). Counts what the gather will do.
+    pub fn plan(&mut self, list: &[u32]) -> Vec<bool> {
+        list.iter()
+            .map(|&j| {
+                if self.per_node[j as usize].is_some() {
+                    self.stats.integrals_linked += 1;
+                    return false;
+                }
+                self.stats.integrals_traced += 1;
+                if self.stats.nodes < self.max_nodes {
+                    self.stats.nodes += 1;
+                    self.stats.bytes += self.rays as u64 * LINK_BYTES;
+                    true
+                } else {
+                    self.stats.integrals_traced_full += 1;
+                    false
+                }
+            })
+            .collect()
+    }
+
+    /// Keeps the links recorded for node `j`.
+    pub fn store(&mut self, j: usize, links: Box<[Link]>) {
+        debug_assert_eq!(links.len(), self.rays);
+        self.per_node[j] = Some(links);
+    }
+}
+
+/// A gathering integral over recorded links: `(1/N) Σ ρ_r U[sender_r]`, the same sum
+/// `cpu::gather_integral` makes by tracing.
+#[inline]
+pub fn gather(links: &[Link], unshot: &[Vec4]) -> Gathered {
+    let mut est = Estimator::default();
+    for l in links {
+        if l.sender != NO_SENDER {
+            est.add(l.albedo * unshot[l.sender as usize].xyz());
+        }
+    }
+    est.finish(links.len())
+}
