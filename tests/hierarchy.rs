@@ -246,6 +246,16 @@ fn links_give_the_traced_answer() {
         assert!(l.bytes <= l.capacity_bytes, "{l:?}");
         assert_eq!(l.bytes, l.nodes * 64 * meshrad::transport::links::LINK_BYTES);
     }
+    // A second solve on the same backend (a benchmark's warm run) records its own links
+    // and counts: the same values and the same statistics as a cold one.
+    let (s, mut p) = cornell(4);
+    p.rays = 64;
+    let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
+    let (cold, _) = meshrad::run::transport_on(&s, &p, &h, None, 0, &Progress::hidden()).unwrap();
+    let (warm, _) = meshrad::run::transport_on(&s, &p, &h, None, 1, &Progress::hidden()).unwrap();
+    assert!(cold.values.indirect == warm.values.indirect, "a warm solve differs");
+    assert_eq!(cold.stats.links, warm.stats.links);
+    assert_eq!(cold.stats.rays_traced, warm.stats.rays_traced);
     // The other variants read more than one node at a hit: they keep no links.
     let (s, mut p) = cornell(3);
     p.variant = Variant::Modified;

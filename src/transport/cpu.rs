@@ -274,6 +274,11 @@ impl Backend for CpuBackend<'_> {
 
     fn init_unshot(&mut self) -> Result<()> {
         self.indirect.fill(Vec4::ZERO);
+        // Each solve records its own links: a warm solve (benchmarks) costs what a cold one
+        // does, and its statistics count its own integrals.
+        if let Some(l) = self.links.as_mut() {
+            l.clear();
+        }
         if !self.p.variant.is_delta() {
             self.unshot.copy_from_slice(&self.direct);
             return Ok(());

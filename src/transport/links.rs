@@ -96,7 +96,7 @@ impl Links {
         }
     }
 
-    /// Drops every link (a new geometry or a new hierarchy).
+    /// Drops every link and count (a new solve).
     pub fn clear(&mut self) {
         self.per_node.iter_mut().for_each(|l| *l = None);
         self.stats = LinkStats {

@@ -222,7 +222,7 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
     stats.kernel_seconds = backend.kernel_times();
     stats.links = backend.link_stats();
     let linked = stats.links.as_ref().map_or(0, |l| l.integrals_linked);
-    stats.rays_traced = stats.rays_gathered - linked * p.rays as u64;
+    stats.rays_traced = stats.rays_gathered.saturating_sub(linked * p.rays as u64);
     Ok(Solution {
         variant: p.variant,
         values,
