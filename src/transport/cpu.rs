@@ -99,7 +99,7 @@ pub fn gather_integral(
 /// [`gather_integral`], recording each ray's link into `record` (the approximate
 /// reconstruction, not `exact_direct`; one entry per ray).
 #[allow(clippy::too_many_arguments)]
-pub fn trace_integral(
+fn trace_integral(
     scene: &Scene,
     h: &Hierarchy,
     p: &SolverParams,
@@ -314,10 +314,9 @@ impl Backend for CpuBackend<'_> {
     fn gather(&mut self, level: u32, exact: bool) -> Result<u32> {
         let list = self.active_list(level);
         // Links serve the sender reads; the exact first bounce traces and records nothing.
-        let links = self.links.as_mut().filter(|_| !exact);
-        let record = match links {
-            Some(l) => l.plan(&list),
-            None => vec![false; list.len()],
+        let record = match self.links.as_mut() {
+            Some(l) if !exact => l.plan(&list),
+            _ => vec![false; list.len()],
         };
         let links = self.links.as_ref().filter(|_| !exact);
         let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);

@@ -11,7 +11,8 @@
 //! (the same products added in the same order; a miss or a hit without a value adds
 //! nothing either way).
 //!
-//! The links' memory is bounded (`link_memory`, and a quarter of the run's memory limit);
+//! The links' memory is bounded (`link_memory`, and what the run's memory limit leaves
+//! after the planned parts);
 //! nodes that find it full are traced in every bounce, as without links. The first bounce
 //! under `exact_first_bounce` reads `E_d` by shadow rays and records nothing: the nodes
 //! that only the first bounce gathers never pay for links.
@@ -59,18 +60,6 @@ pub struct LinkStats {
     pub integrals_traced: u64,
     /// Of those, integrals traced because the links were full.
     pub integrals_traced_full: u64,
-}
-
-impl LinkStats {
-    /// Fraction of the sender-reading integrals served by links.
-    pub fn hit_rate(&self) -> f64 {
-        let all = self.integrals_linked + self.integrals_traced;
-        if all == 0 {
-            0.0
-        } else {
-            self.integrals_linked as f64 / all as f64
-        }
-    }
 }
 
 /// The links of a solve, per node.
