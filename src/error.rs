@@ -47,6 +47,10 @@ pub enum Error {
         key: String,
         message: String,
     },
+    /// An edit of a frame or a session (`edit`) names what is not there or sets an
+    /// impossible value: `at` is the frame or line, `key` the edited key.
+    #[error("{at}: `{key}`: {message}")]
+    Edit { at: String, key: String, message: String },
     /// The Vulkan layer failed.
     #[error("GPU: {0}")]
     Gpu(String),

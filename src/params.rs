@@ -48,6 +48,31 @@ pub enum BvhKind {
     Cwbvh,
 }
 
+/// What decides which surface sides get nodes (`ALGORITHM.md` §3, §6).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Reach {
+    /// Light paths from the scene's lights through the whole arrangement: only the sides
+    /// this lighting reaches get nodes, and the crevice test ray-casts the whole scene.
+    /// The hierarchy then depends on where everything is.
+    Lights,
+    /// Each object alone: the sides that light from anywhere outside it could reach (both
+    /// sides of an open sheet, the outside of a closed mesh), and crevices within it. The
+    /// hierarchy of an object then depends on that object (and the scene's total area)
+    /// only, so it survives moving objects and lights (`meshrad animate`, `session`).
+    Object,
+}
+
+impl Reach {
+    /// The name used in files.
+    pub fn name(self) -> &'static str {
+        match self {
+            Reach::Lights => "lights",
+            Reach::Object => "object",
+        }
+    }
+}
+
 /// Every parameter of the solver. Unknown keys are an error.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -119,7 +144,12 @@ pub struct SolverParams {
     pub candidate_factor: f32,
     /// Upper bound on the candidate pool of one object.
     pub max_candidates: u32,
-    /// Light paths traced to find which surface sides light can reach (§3).
+    /// Which sides get nodes: `"lights"` (from the lights, through the arrangement; what
+    /// `solve` takes when unset) or `"object"` (per object, independent of the
+    /// arrangement; what `animate` and `session` take when unset, and need).
+    pub reach: Option<Reach>,
+    /// Light paths traced to find which surface sides light can reach (§3); with
+    /// `reach = "object"`, lines through each object's bounding sphere, per object.
     pub reach_paths: u32,
     /// Bounces of those paths.
     pub reach_bounces: u32,
@@ -160,6 +190,7 @@ impl Default for SolverParams {
             stop_threshold: 1e-3,
             candidate_factor: 8.0,
             max_candidates: 8_000_000,
+            reach: None,
             reach_paths: 1 << 17,
             reach_bounces: 6,
             crevice_distance: 1.0,
@@ -174,6 +205,11 @@ impl SolverParams {
     /// `G`: the levels that may be gathered.
     pub fn gather_levels(&self) -> u32 {
         self.gather_levels.unwrap_or(self.levels)
+    }
+
+    /// Which sides get nodes (unset: from the lights).
+    pub fn reach(&self) -> Reach {
+        self.reach.unwrap_or(Reach::Lights)
     }
 
     /// The level used for outputs.

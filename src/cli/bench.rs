@@ -1,4 +1,4 @@
-//! `meshrad bench accuracy` and `meshrad bench table2`.
+//! `meshrad bench accuracy`, `table2`, `coverage`, `nodes` and `edit`.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -28,6 +28,34 @@ pub enum BenchCommand {
     /// The solved values at the nodes themselves (no output interpolation) against the
     /// converged reference at the node centres, per level.
     Nodes(NodesArgs),
+    /// The modify-review cycle: fixed frames that move objects and lights, each solved as
+    /// an edit (hierarchy built once) and as a fresh solve, alternating, in one run.
+    Edit(EditArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct EditArgs {
+    /// Scenes (cornell, buddha, sponza; comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "cornell,buddha")]
+    scenes: Vec<String>,
+    /// Where cornell_buddha_parts.toml and sponza.toml are.
+    #[arg(long, default_value = "scenes/shared")]
+    scene_dir: PathBuf,
+    #[arg(long, value_enum, default_value = "both")]
+    backend: Backends,
+    /// Vulkan device (index or name).
+    #[arg(long)]
+    device: Option<String>,
+    /// Frames per scene (the first is the scene as loaded).
+    #[arg(long, default_value_t = 8)]
+    frames: usize,
+    #[arg(long, default_value = "bench-edit")]
+    out: PathBuf,
+    /// Tiny parameters (CI).
+    #[arg(long)]
+    smoke: bool,
+    #[arg(long, short)]
+    quiet: bool,
 }
 
 #[derive(Args, Debug)]
@@ -143,6 +171,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Table2(a) => run_table2(a),
         BenchCommand::Coverage(a) => run_coverage(a),
         BenchCommand::Nodes(a) => run_nodes(a),
+        BenchCommand::Edit(a) => run_edit(a),
     }
 }
 
@@ -355,6 +384,52 @@ fn run_nodes(a: NodesArgs) -> Result<()> {
             100.0 * e.reference_noise
         );
     }
+    Ok(())
+}
+
+fn run_edit(a: EditArgs) -> Result<()> {
+    use crate::bench::edit;
+    let progress = Progress::new(a.quiet);
+    if a.frames < 2 {
+        anyhow::bail!("--frames {}: at least 2 (the scene as loaded, then edits)", a.frames);
+    }
+    output::ensure_dir(&a.out)?;
+    let mut backends = Vec::new();
+    if a.backend != Backends::Gpu {
+        backends.push(None);
+    }
+    if a.backend != Backends::Cpu {
+        backends.push(Some(gpu(a.device.as_deref())?));
+    }
+    let mut rows = Vec::new();
+    for name in &a.scenes {
+        let spec = edit::SCENES
+            .iter()
+            .find(|s| s.name == name)
+            .with_context(|| format!("--scenes: unknown scene `{name}` (cornell, buddha, sponza)"))?;
+        for ctx in &backends {
+            rows.extend(edit::run_scene(
+                spec,
+                &a.scene_dir,
+                a.frames,
+                a.smoke,
+                ctx.clone(),
+                &progress,
+            )?);
+        }
+    }
+    progress.finish();
+    let device = backends.iter().flatten().next().map_or("no GPU".to_string(), |c| {
+        format!("{} ({} {})", c.info.name, c.info.driver_name, c.info.driver_info)
+    });
+    let text = format!(
+        "Device: {device}; CPU: {} threads. Seconds, median / 95th percentile over the re-solve frames.\n\n{}",
+        rayon::current_num_threads(),
+        edit::markdown(&rows)
+    );
+    std::fs::write(a.out.join("edit.md"), &text).context("writing edit.md")?;
+    std::fs::write(a.out.join("edit.csv"), edit::csv(&rows)).context("writing edit.csv")?;
+    println!("{text}");
     Ok(())
 }
 

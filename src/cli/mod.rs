@@ -1,7 +1,8 @@
-//! The `meshrad` command line: `solve` (the default), `probe`, `devices`, `reference`,
-//! `bench`.
+//! The `meshrad` command line: `solve` (the default), `probe`, `animate`, `session`,
+//! `devices`, `reference`, `bench`.
 
 mod bench;
+mod edit;
 mod reference;
 
 use std::path::{Path, PathBuf};
@@ -43,6 +44,12 @@ enum Command {
     Solve(SolveArgs),
     /// Solve a scene and print the irradiance at given surface points (CSV).
     Probe(ProbeArgs),
+    /// Solve a sequence of frames that move objects and change lights: hierarchies are
+    /// built once, each frame applies its edits and re-solves.
+    Animate(edit::AnimateArgs),
+    /// The modify-review cycle driven by JSON lines on stdin (`set`, `solve`, `probe`,
+    /// `render`, `stats`), one JSON answer per line on stdout.
+    Session(edit::SessionArgs),
     /// List the Vulkan devices, their drivers, and whether meshrad can use them.
     Devices,
     /// Brute-force Monte Carlo reference (no hierarchy) at points or from the camera.
@@ -150,6 +157,8 @@ pub fn main() -> ExitCode {
         }),
         Some(Command::Solve(a)) => solve_cmd(a),
         Some(Command::Probe(a)) => probe_cmd(a),
+        Some(Command::Animate(a)) => edit::animate(a),
+        Some(Command::Session(a)) => edit::session(a),
         Some(Command::Devices) => devices_cmd(),
         Some(Command::Reference(a)) => reference::run(a),
         Some(Command::Bench(b)) => bench::run(b),

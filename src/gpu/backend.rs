@@ -74,7 +74,21 @@ pub struct GpuBackend<'a> {
     /// The active count of the next level to gather, from the last `refine`.
     active_count: u32,
     lights: usize,
+    /// Each object's CWBVH root (its `ObjectInfo::cw_root`).
+    cw_roots: Vec<u32>,
     pub report: GpuReport,
+}
+
+/// What stays on the device between the solves of an editing session (`crate::edit`):
+/// pipelines, the scene's triangles, BVHs and textures, the hierarchy's nodes and
+/// kd-trees, the per-node state. [`GpuBackend::resume`] uploads only what an edit changed.
+pub struct GpuResident {
+    k: Kernels,
+    prof: Profiler,
+    res: Resources,
+    batch: u32,
+    cw_roots: Vec<u32>,
+    report: GpuReport,
 }
 
 /// The specialization constants of a solve.
@@ -105,6 +119,7 @@ impl<'a> GpuBackend<'a> {
         let batch = batch_size(&ctx, &p);
         let cw = Cwbvh::build(scene, &p);
         let res = Resources::new(&ctx, scene, h, &p, &cw, batch)?;
+        let cw_roots = cw.roots.clone();
         let report = GpuReport {
             device: ctx.info.name.clone(),
             driver: format!("{} {}", ctx.info.driver_name, ctx.info.driver_info),
@@ -127,7 +142,52 @@ impl<'a> GpuBackend<'a> {
             batch,
             active_count: 0,
             lights: scene.lights.len(),
+            cw_roots,
             report,
+        })
+    }
+
+    /// Keeps what is on the device for the next solve of an editing session.
+    pub fn suspend(self) -> GpuResident {
+        GpuResident {
+            k: self.k,
+            prof: self.prof,
+            res: self.res,
+            batch: self.batch,
+            cw_roots: self.cw_roots,
+            report: self.report,
+        }
+    }
+
+    /// The backend again over resident state `r`, for the same hierarchy's nodes (`h`
+    /// arranged anew after objects moved: `moved`), after uploading the lights and, if
+    /// objects moved, the transforms, clips and relations (`Resources::rearrange`).
+    pub fn resume(
+        ctx: Arc<Context>,
+        r: GpuResident,
+        scene: &Scene,
+        h: &'a Hierarchy,
+        p: &SolverParams,
+        moved: bool,
+    ) -> Result<GpuBackend<'a>> {
+        let mut r = r;
+        let t = Instant::now();
+        let bytes = r.res.rearrange(&ctx, scene, h, p, &r.cw_roots, moved)?;
+        r.report.bytes_uploaded = bytes;
+        r.report.seconds_upload = t.elapsed().as_secs_f64();
+        r.report.seconds_pipelines = 0.0;
+        Ok(GpuBackend {
+            ctx,
+            h,
+            p: p.clone(),
+            k: r.k,
+            prof: r.prof,
+            res: r.res,
+            batch: r.batch,
+            active_count: 0,
+            lights: scene.lights.len(),
+            cw_roots: r.cw_roots,
+            report: r.report,
         })
     }
 

@@ -238,6 +238,52 @@ impl Resources {
     }
 }
 
+impl Resources {
+    /// After an edit: uploads what depends on the arrangement and the lights (the
+    /// lights, the objects' transforms, the support clips and the parent and child
+    /// relations; `moved` false: the lights alone) and rewrites `Globals`. Triangles,
+    /// BVHs, textures, nodes and kd-trees stay resident. Returns the bytes uploaded.
+    pub fn rearrange(
+        &mut self,
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        h: &Hierarchy,
+        p: &SolverParams,
+        cw_roots: &[u32],
+        moved: bool,
+    ) -> Result<u64> {
+        let sc = &mut self.scene;
+        sc.lights = Buffer::upload(ctx, "lights", &scene.lights[..])?;
+        let mut bytes = sc.lights.size;
+        if moved {
+            let mut objects = h.object_infos(scene);
+            for (info, &root) in objects.iter_mut().zip(cw_roots) {
+                info.cw_root = root;
+            }
+            sc.objects = Buffer::upload(ctx, "objects", &objects[..])?;
+            sc.clips = Buffer::upload(ctx, "support clips", &h.clips[..])?;
+            sc.parent_offset = Buffer::upload(ctx, "parent offsets", &h.parent_offset[..])?;
+            sc.parents = Buffer::upload(ctx, "parents", &h.parents[..])?;
+            sc.child_offset = Buffer::upload(ctx, "child offsets", &h.child_offset[..])?;
+            sc.children = Buffer::upload(ctx, "children", &h.children[..])?;
+            bytes += [
+                &sc.objects,
+                &sc.clips,
+                &sc.parent_offset,
+                &sc.parents,
+                &sc.child_offset,
+                &sc.children,
+            ]
+            .iter()
+            .map(|b| b.size)
+            .sum::<u64>();
+        }
+        let g = globals(&self.scene, &self.state, &self.batch, scene, h, p);
+        self.globals = Buffer::upload(ctx, "globals", bytemuck::bytes_of(&g))?;
+        Ok(bytes + std::mem::size_of::<Globals>() as u64)
+    }
+}
+
 /// The `Globals` block: every buffer's address and the solve's scalars.
 /// The support scale κ and the weight exponent α are the hierarchy's (its clip planes were
 /// built with them), not read again from `p`.

@@ -21,7 +21,7 @@ use crate::geom::sampling::{cosine_direction, integral_rotation, onb};
 use crate::geom::transform::{xform_point, xform_vector};
 use crate::geom::Ray;
 use crate::layout::{KdSplit, Node, ObjectInfo, Parent};
-use crate::params::{SolverParams, MAX_LEVELS};
+use crate::params::{Reach, SolverParams, MAX_LEVELS};
 use crate::progress::Progress;
 use crate::scene::{reach, Scene};
 use poisson::Candidate;
@@ -172,6 +172,59 @@ pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32
     near >= 7
 }
 
+/// [`in_crevice`] against object `o` alone, in object space (`reach = "object"`): the
+/// gap must lie within the object (`d_min_obj` in object units), so the answer does not
+/// depend on where the object is or on the other objects.
+pub fn in_crevice_within(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32, index: u32, diag: f32) -> bool {
+    let obj = &scene.objects[o];
+    let origin = crate::geom::ray::offset_origin(c.pos, c.normal, diag);
+    let (t, b) = onb(c.normal);
+    let phi0 = integral_rotation(0x0c0e_u32, index);
+    let mut near = 0;
+    for k in 0..8 {
+        let u = Vec2::new((k as f32 + 0.5) / 8.0, (k as f32 * 0.618_034).fract());
+        let d = cosine_direction(c.normal, t, b, u, phi0);
+        let ray = Ray { o: origin, d };
+        if crate::geom::bvh::trace(&scene.bvh, &scene.tris, obj.bvh_root, &ray, d_min_obj, true).is_some() {
+            near += 1;
+        }
+    }
+    near >= 7
+}
+
+/// Object-space diagonal of object `o`'s bounds (the offset scale of object-space rays).
+fn object_diagonal(scene: &Scene, o: usize) -> f32 {
+    let obj = &scene.objects[o];
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in &scene.tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
+        for v in [t.v0, t.v1, t.v2] {
+            lo = lo.min(Vec3::from(v));
+            hi = hi.max(Vec3::from(v));
+        }
+    }
+    (hi - lo).length()
+}
+
+/// Where the objects were when a hierarchy was last arranged (their transforms, and the
+/// scene's bounds, which set the ray offsets).
+#[derive(Clone, Debug)]
+pub struct Arrangement {
+    pub objects: Vec<crate::scene::SceneObject>,
+    pub bounds: (Vec3, Vec3),
+    pub scale: f32,
+}
+
+impl Arrangement {
+    /// The scene's arrangement now.
+    pub fn of(scene: &Scene) -> Arrangement {
+        Arrangement {
+            objects: scene.objects.clone(),
+            bounds: scene.bounds,
+            scale: scene.scale,
+        }
+    }
+}
+
 /// Where one object's nodes of each level live, and the levels' radii in object space.
 #[derive(Clone, Debug, Default)]
 pub struct ObjectLevels {
@@ -227,6 +280,11 @@ pub struct Hierarchy {
     pub child_offset: Vec<u32>,
     pub children: Vec<u32>,
     pub stats: HierarchyStats,
+    /// The triangle sides that got nodes (two flags per global triangle).
+    pub sides: Vec<bool>,
+    /// Under `reach = "object"`: what decides the sides, to tell after an edit whether
+    /// they still hold (`crate::edit`).
+    pub object_reach: Option<reach::ObjectReach>,
 }
 
 /// The levels' density: each object's reachable area (world units²) and the world-space
@@ -337,6 +395,10 @@ fn poisson_levels(
         .map(|p| (0..p.len()).map(|_| AtomicU8::new(0)).collect())
         .collect();
     let d_min = (p.crevice_distance as f64 * d.radius[m - 1]) as f32;
+    let within = p.reach() == Reach::Object;
+    let diags: Vec<f32> = (0..scene.objects.len())
+        .map(|o| if within { object_diagonal(scene, o) } else { 0.0 })
+        .collect();
     let sets: Vec<Vec<Candidate>> = jobs
         .par_iter()
         .map(|&(o, l)| {
@@ -351,7 +413,12 @@ fn poisson_levels(
                 if state != 0 {
                     return state == 1;
                 }
-                let open = !in_crevice(scene, o, &pool[i], d_min, i as u32);
+                let open = if within {
+                    let d_obj = d_min / scene.objects[o].transform.scale;
+                    !in_crevice_within(scene, o, &pool[i], d_obj, i as u32, diags[o])
+                } else {
+                    !in_crevice(scene, o, &pool[i], d_min, i as u32)
+                };
                 memo[o][i].store(if open { 1 } else { 2 }, Ordering::Relaxed);
                 open
             };
@@ -438,7 +505,16 @@ impl Hierarchy {
         let mut stats = HierarchyStats::default();
         let t = Instant::now();
         progress.stage("reachable surfaces");
-        let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
+        let (sides, object_reach) = match p.reach() {
+            Reach::Lights => (
+                reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed),
+                None,
+            ),
+            Reach::Object => {
+                let r = reach::ObjectReach::new(scene, p.reach_paths, p.reach_bounces, p.seed);
+                (r.sides_for(scene), Some(r))
+            }
+        };
         stats.seconds_reach = t.elapsed().as_secs_f64();
         stats.reachable_sides = sides.iter().filter(|&&s| s).count();
 
@@ -464,22 +540,13 @@ impl Hierarchy {
         stats.seconds_kdtree = t.elapsed().as_secs_f64();
         stats.nodes_per_level = level_start.windows(2).map(|w| w[1] - w[0]).collect();
 
-        let t = Instant::now();
-        progress.stage("support clipping");
-        let clips = if p.support_clip {
-            support_clips(scene, &nodes, &objects, p.kappa)
-        } else {
-            vec![weight::NO_CLIP; nodes.len()]
-        };
-        stats.seconds_clips = t.elapsed().as_secs_f64();
-        stats.clipped_nodes = clips.iter().filter(|c| **c != weight::NO_CLIP).count();
         let mut h = Hierarchy {
             levels: p.levels,
             kappa: p.kappa,
             alpha: p.alpha,
             nodes,
             splits,
-            clips,
+            clips: Vec::new(),
             level_start,
             objects,
             parent_offset: Vec::new(),
@@ -487,12 +554,131 @@ impl Hierarchy {
             child_offset: Vec::new(),
             children: Vec::new(),
             stats,
+            sides,
+            object_reach,
         };
+        h.arrange(scene, p, progress);
+        Ok(h)
+    }
+
+    /// What depends on where the objects are: the support clips (walls across a node's
+    /// support, of any object) and, as the pull-down weights respect them, the parent
+    /// relations. [`Hierarchy::build`] ends with it; after objects move, it brings a
+    /// hierarchy to exactly what a build for the new arrangement gives (with `reach =
+    /// "object"`, where nothing else depends on the arrangement).
+    pub fn arrange(&mut self, scene: &Scene, p: &SolverParams, progress: &Progress) {
+        let t = Instant::now();
+        progress.stage("support clipping");
+        self.clips = if p.support_clip {
+            support_clips(scene, &self.nodes, &self.objects, p.kappa)
+        } else {
+            vec![weight::NO_CLIP; self.nodes.len()]
+        };
+        self.stats.seconds_clips = t.elapsed().as_secs_f64();
+        self.stats.clipped_nodes = self.clips.iter().filter(|c| **c != weight::NO_CLIP).count();
         let t = Instant::now();
         progress.stage("parent relations");
-        h.build_relations();
-        h.stats.seconds_parents = t.elapsed().as_secs_f64();
-        Ok(h)
+        self.build_relations(None);
+        self.stats.seconds_parents = t.elapsed().as_secs_f64();
+    }
+
+    /// [`Hierarchy::arrange`] after the objects `moved` were placed anew (`before`: the
+    /// scene as it was arranged last), computing again only what can change: the clips of
+    /// the moved objects' nodes and of the nodes whose clip rays can reach a moved
+    /// object's old or new bounds (all of them if the scene's bounds, and so its ray
+    /// offsets, changed), and the parent lists of the children within a support of a
+    /// node whose clip changed (and of those with at most one parent: holes and orphans
+    /// are found by a wider search). The result is [`Hierarchy::arrange`]'s, exactly.
+    /// Returns the clips computed and the parent lists computed.
+    pub fn rearrange(
+        &mut self,
+        scene: &Scene,
+        before: &Arrangement,
+        moved: &[usize],
+        p: &SolverParams,
+        progress: &Progress,
+    ) -> (usize, usize) {
+        if !p.support_clip || scene.scale != before.scale || scene.bounds != before.bounds {
+            self.arrange(scene, p, progress);
+            return (self.nodes.len(), self.nodes.len());
+        }
+        let t = Instant::now();
+        progress.stage("support clipping");
+        let world_box = |objects: &[crate::scene::SceneObject], o: usize| {
+            let obj = &objects[o];
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for tri in &scene.tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
+                for v in [tri.v0, tri.v1, tri.v2] {
+                    let w = xform_point(&obj.to_world, Vec3::from(v));
+                    lo = lo.min(w);
+                    hi = hi.max(w);
+                }
+            }
+            (lo, hi)
+        };
+        let boxes: Vec<(Vec3, Vec3)> = moved
+            .iter()
+            .flat_map(|&o| [world_box(&before.objects, o), world_box(&scene.objects, o)])
+            .collect();
+        let eps = scene.scale * 1e-4;
+        let is_moved: Vec<bool> = (0..scene.objects.len()).map(|o| moved.contains(&o)).collect();
+        let redo: Vec<bool> = self
+            .nodes
+            .par_iter()
+            .map(|nd| {
+                let o = nd.object as usize;
+                if is_moved[o] {
+                    return true;
+                }
+                let obj = &scene.objects[o];
+                let x = xform_point(&obj.to_world, Vec3::from(nd.pos));
+                let r = 1.2 * self.support(o, nd.level as usize) * obj.transform.scale + eps;
+                boxes
+                    .iter()
+                    .any(|(lo, hi)| (x.clamp(*lo, *hi) - x).length_squared() <= r * r)
+            })
+            .collect();
+        let fresh: Vec<(usize, weight::Clip)> = redo
+            .par_iter()
+            .enumerate()
+            .filter(|(_, &r)| r)
+            .map(|(i, _)| {
+                let nd = &self.nodes[i];
+                let h_obj = p.kappa * self.objects[nd.object as usize].radius[nd.level as usize];
+                let mut planes = walls_across_support(scene, nd, h_obj);
+                widen_to_neighbour_sectors(&mut planes);
+                (i, encode_clip(planes))
+            })
+            .collect();
+        let clips_done = fresh.len();
+        let mut changed = Vec::new();
+        for (i, c) in fresh {
+            if self.clips[i] != c {
+                self.clips[i] = c;
+                changed.push(i);
+            }
+        }
+        self.stats.seconds_clips = t.elapsed().as_secs_f64();
+        self.stats.clipped_nodes = self.clips.iter().filter(|c| **c != weight::NO_CLIP).count();
+        let t = Instant::now();
+        progress.stage("parent relations");
+        let n = self.nodes.len();
+        let mut dirty: Vec<bool> = (0..n).map(|c| self.parents_of(c).len() <= 1).collect();
+        for &j in &changed {
+            let nd = &self.nodes[j];
+            let (o, l) = (nd.object as usize, nd.level as usize);
+            if l + 1 >= self.levels as usize {
+                continue;
+            }
+            let (nodes, splits, base) = self.level(o, l + 1);
+            kdtree::range(nodes, splits, Vec3::from(nd.pos), self.support(o, l) * 1.0001, |i| {
+                dirty[base + i] = true;
+            });
+        }
+        let parents_done = dirty.iter().filter(|&&d| d).count();
+        self.build_relations(Some(&dirty));
+        self.stats.seconds_parents = t.elapsed().as_secs_f64();
+        (clips_done, parents_done)
     }
 
     /// Support `h_l` of level `l` of object `o`, object space.
@@ -554,7 +740,9 @@ impl Hierarchy {
         None
     }
 
-    fn build_relations(&mut self) {
+    /// The parent and child relations; with `dirty`, only the marked children's parent
+    /// lists are computed again (the others keep theirs).
+    fn build_relations(&mut self, dirty: Option<&[bool]>) {
         let n = self.nodes.len();
         let lists: Vec<Vec<Parent>> = (0..n)
             .into_par_iter()
@@ -562,6 +750,9 @@ impl Hierarchy {
                 let nd = &self.nodes[c];
                 if nd.level == 0 {
                     return Vec::new();
+                }
+                if dirty.is_some_and(|d| !d[c]) {
+                    return self.parents_of(c).to_vec();
                 }
                 let (o, l) = (nd.object as usize, nd.level as usize - 1);
                 let (p, nrm) = (Vec3::from(nd.pos), Vec3::from(nd.normal));

@@ -25,14 +25,35 @@ pub struct SceneFile {
 pub struct ObjectEntry {
     /// OBJ path, relative to the scene file.
     pub mesh: String,
-    /// Display name (default: the file name).
+    /// The object's name, unique in the scene (default `object<i>`): frames and sessions
+    /// move it by this name.
     pub name: Option<String>,
+    /// Only the faces of these `o`/`g` groups of the OBJ (one name or a list).
+    pub group: Option<Groups>,
     pub translate: Option<[f32; 3]>,
     /// Degrees about x, then y, then z.
     pub rotate: Option<[f32; 3]>,
     pub scale: Option<f32>,
     /// Split every triangle into four, this many times.
     pub tessellate: Option<u32>,
+}
+
+/// One group name or several.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum Groups {
+    One(String),
+    Many(Vec<String>),
+}
+
+impl Groups {
+    /// The names, in the file's order.
+    pub fn names(&self) -> Vec<String> {
+        match self {
+            Groups::One(s) => vec![s.clone()],
+            Groups::Many(v) => v.clone(),
+        }
+    }
 }
 
 /// `[camera]`: a pinhole camera.

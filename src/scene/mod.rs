@@ -75,6 +75,11 @@ pub struct Scene {
     pub texels: Vec<u32>,
     pub srgb: [f32; 256],
     pub lights: Vec<GpuLight>,
+    /// Each light's name (`[[light]] name`, default `light<i>`), unique.
+    pub light_names: Vec<String>,
+    /// Each light's table as the file gave it (less `name`): an edit replaces keys in it
+    /// and parses it again, exactly as a file holding the new values would be parsed.
+    pub light_tables: Vec<toml::Table>,
     pub camera: Camera,
     /// World-space bounds and the length of their diagonal (the offset scale).
     pub bounds: (Vec3, Vec3),
@@ -146,6 +151,19 @@ impl Scene {
         Scene::embedded_cornell_with(overrides, &Limits::default())
     }
 
+    /// A scene file embedded in the binary (`cornell_box.toml`, `cornell_parts.toml`).
+    pub fn embedded_file(name: &str, overrides: &[(String, toml::Value)]) -> Result<(Scene, SolverParams)> {
+        let src = Source::Embedded(source::EMBEDDED_CORNELL);
+        let text = src.read(Path::new(name))?;
+        Scene::from_toml_with(
+            &String::from_utf8_lossy(&text),
+            &src.display(Path::new(name)),
+            src,
+            overrides,
+            &Limits::default(),
+        )
+    }
+
     /// [`Scene::embedded_cornell`] within `limits`.
     pub fn embedded_cornell_with(
         overrides: &[(String, toml::Value)],
@@ -211,19 +229,41 @@ impl Scene {
                 message: "the scene has no [[light]]: everything would be black".into(),
             });
         }
-        let lights = file
-            .light
+        let mut light_names = Vec::new();
+        let mut light_tables = Vec::new();
+        for (i, l) in file.light.iter().enumerate() {
+            let mut t = l.clone();
+            let name = match t.remove("name") {
+                None => format!("light{i}"),
+                Some(toml::Value::String(s)) if !s.trim().is_empty() => s,
+                Some(v) => {
+                    return Err(Error::SceneValue {
+                        path: path.into(),
+                        key: format!("light[{i}].name"),
+                        message: format!("expected a non-empty string, found {v}"),
+                    })
+                }
+            };
+            if light_names.contains(&name) {
+                return Err(Error::SceneValue {
+                    path: path.into(),
+                    key: format!("light[{i}].name"),
+                    message: format!("`{name}` names an earlier light too: names must be unique"),
+                });
+            }
+            light_names.push(name);
+            light_tables.push(t);
+        }
+        let lights = light_tables
             .iter()
             .enumerate()
             .map(|(i, l)| light::from_table(l, i, path))
             .collect::<Result<Vec<_>>>()?;
-        if lights.iter().all(|l| l.power.iter().all(|&c| c == 0.0)) {
-            return Err(Error::SceneValue {
-                path: path.into(),
-                key: "light".into(),
-                message: "every light has zero intensity or irradiance: everything would be black".into(),
-            });
-        }
+        check_light_power(&lights).map_err(|message| Error::SceneValue {
+            path: path.into(),
+            key: "light".into(),
+            message,
+        })?;
         // What the parameters alone ask for, before any mesh is read; checked again with
         // the triangles in `finish`.
         let camera = file.camera.as_ref().map(|c| Camera::from_entry(c, path)).transpose()?;
@@ -244,8 +284,51 @@ impl Scene {
         for (i, entry) in file.object.iter().enumerate() {
             b.add_object(&source, path, i, entry)?;
         }
-        let scene = b.finish(path, &source, lights, file.camera.as_ref(), &file.solver)?;
+        let mut scene = b.finish(path, &source, lights, file.camera.as_ref(), &file.solver)?;
+        scene.light_names = light_names;
+        scene.light_tables = light_tables;
         Ok((scene, file.solver))
+    }
+
+    /// The index of the object named `name`.
+    pub fn object_index(&self, name: &str) -> Option<usize> {
+        self.objects.iter().position(|o| o.name == name)
+    }
+
+    /// The index of the light named `name`.
+    pub fn light_index(&self, name: &str) -> Option<usize> {
+        self.light_names.iter().position(|n| n == name)
+    }
+
+    /// Places object `i` with `t` (checked as a scene file's transform is: the error
+    /// gives the field and why) and recomputes the scene's bounds, exactly as loading a
+    /// file that holds `t` computes them.
+    pub fn set_transform(&mut self, i: usize, t: Transform) -> std::result::Result<(), (&'static str, String)> {
+        check_transform(&t)?;
+        let o = &mut self.objects[i];
+        o.transform = t;
+        o.to_world = t.to_world();
+        o.to_object = t.to_object();
+        let (lo, hi, scale) = world_bounds(&self.objects, &self.tris).map_err(|m| ("translate", m))?;
+        self.bounds = (lo, hi);
+        self.scale = scale;
+        Ok(())
+    }
+
+    /// Replaces light `i` by the light `table` describes (the keys of a `[[light]]`, less
+    /// `name`), parsed as a scene file's; `index` names it in errors.
+    pub fn set_light(&mut self, i: usize, table: toml::Table) -> Result<()> {
+        let l = light::from_table(&table, i, &self.path)?;
+        let mut lights = self.lights.clone();
+        lights[i] = l;
+        check_light_power(&lights).map_err(|message| Error::SceneValue {
+            path: self.path.clone(),
+            key: format!("light[{i}]"),
+            message,
+        })?;
+        self.lights = lights;
+        self.light_tables[i] = table;
+        Ok(())
     }
 
     /// Closest hit of a world-space ray in `(0, tmax)` over all objects.
@@ -467,28 +550,58 @@ pub fn apply_overrides(params: &SolverParams, overrides: &[(String, toml::Value)
 
 /// Object `i`'s transform, each part checked.
 fn object_transform(scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Result<Transform> {
-    let bad = |f: &str, m: String| Error::SceneValue {
+    let t = Transform {
+        scale: e.scale.unwrap_or(1.0),
+        rotate_deg: Vec3::from(e.rotate.unwrap_or([0.0; 3])),
+        translate: Vec3::from(e.translate.unwrap_or([0.0; 3])),
+    };
+    check_transform(&t).map_err(|(f, m)| Error::SceneValue {
         path: scene_path.into(),
         key: format!("object[{i}].{f}"),
         message: m,
-    };
-    let scale = e.scale.unwrap_or(1.0);
+    })?;
+    Ok(t)
+}
+
+/// Whether `t` is a transform a scene may hold: the field at fault and why if not.
+pub fn check_transform(t: &Transform) -> std::result::Result<(), (&'static str, String)> {
+    if !(t.scale.is_finite() && t.scale > 0.0) {
+        return Err(("scale", format!("{} must be finite and positive", t.scale)));
+    }
+    if !t.rotate_deg.is_finite() {
+        return Err(("rotate", format!("{:?} must be finite", t.rotate_deg.to_array())));
+    }
+    if !t.translate.is_finite() {
+        return Err(("translate", format!("{:?} must be finite", t.translate.to_array())));
+    }
+    Ok(())
+}
+
+/// Some light must give light.
+fn check_light_power(lights: &[GpuLight]) -> std::result::Result<(), String> {
+    if lights.iter().all(|l| l.power.iter().all(|&c| c == 0.0)) {
+        return Err("every light has zero intensity or irradiance: everything would be black".into());
+    }
+    Ok(())
+}
+
+/// World-space bounds of every object and the length of their diagonal.
+fn world_bounds(objects: &[SceneObject], tris: &[Tri]) -> std::result::Result<(Vec3, Vec3, f32), String> {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for o in objects {
+        for t in &tris[o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize] {
+            for v in [t.v0, t.v1, t.v2] {
+                let w = xform_point(&o.to_world, Vec3::from(v));
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+    }
+    let scale = (hi - lo).length();
     if !(scale.is_finite() && scale > 0.0) {
-        return Err(bad("scale", format!("{scale} must be finite and positive")));
+        return Err("the geometry's bounds are empty or not finite".into());
     }
-    let rotate = Vec3::from(e.rotate.unwrap_or([0.0; 3]));
-    if !rotate.is_finite() {
-        return Err(bad("rotate", format!("{:?} must be finite", rotate.to_array())));
-    }
-    let translate = Vec3::from(e.translate.unwrap_or([0.0; 3]));
-    if !translate.is_finite() {
-        return Err(bad("translate", format!("{:?} must be finite", translate.to_array())));
-    }
-    Ok(Transform {
-        scale,
-        rotate_deg: rotate,
-        translate,
-    })
+    Ok((lo, hi, scale))
 }
 
 #[derive(Default)]
@@ -536,11 +649,18 @@ impl Builder {
                     * 0.5
             })
             .sum();
-        let name = e.name.clone().unwrap_or_else(|| {
-            rel.file_stem()
-                .map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_else(|| format!("object{i}"))
-        });
+        let name = e.name.clone().unwrap_or_else(|| format!("object{i}"));
+        if name.trim().is_empty() || self.objects.iter().any(|o| o.name == name) {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: format!("object[{i}].name"),
+                message: if name.trim().is_empty() {
+                    "is empty".into()
+                } else {
+                    format!("`{name}` names an earlier object too: names must be unique")
+                },
+            });
+        }
         self.objects.push(SceneObject {
             name,
             transform,
@@ -592,7 +712,18 @@ impl Builder {
         }
         // The OBJ text, its normalised copy and tobj's arrays: about 4× the file.
         let read_limit = crate::limits::MAX_MESH_BYTES.min(self.limits.max_memory / 4);
-        let mut mesh = obj::load(source, rel, read_limit).map_err(|err| match (expanded, err) {
+        let groups = e.group.as_ref().map(config::Groups::names);
+        if groups
+            .as_ref()
+            .is_some_and(|g| g.is_empty() || g.iter().any(|n| n.trim().is_empty()))
+        {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: key("group"),
+                message: "names no group (give a group name of the OBJ, or a list of them)".into(),
+            });
+        }
+        let mut mesh = obj::load(source, rel, read_limit, groups.as_deref()).map_err(|err| match (expanded, err) {
             (Some(p), Error::Io { path, error }) if !p.exists() => Error::Io {
                 path,
                 error: std::io::Error::new(
@@ -654,7 +785,7 @@ impl Builder {
         let mut texture_paths: Vec<PathBuf> = Vec::new();
         let mut materials = Vec::new();
         for m in &self.materials {
-            if m.emissive {
+            if m.emissive && !self.report.emissive_materials_ignored.contains(&m.name) {
                 self.report.emissive_materials_ignored.push(m.name.clone());
             }
             let kd = m.kd;
@@ -714,29 +845,6 @@ impl Builder {
         Ok((materials, textures, texels))
     }
 
-    /// World-space bounds of every object and the length of their diagonal.
-    fn world_bounds(&self, path: &Path) -> Result<(Vec3, Vec3, f32)> {
-        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-        for o in &self.objects {
-            for t in &self.tris[o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize] {
-                for v in [t.v0, t.v1, t.v2] {
-                    let w = xform_point(&o.to_world, Vec3::from(v));
-                    lo = lo.min(w);
-                    hi = hi.max(w);
-                }
-            }
-        }
-        let scale = (hi - lo).length();
-        if !(scale.is_finite() && scale > 0.0) {
-            return Err(Error::SceneValue {
-                path: path.into(),
-                key: "object".into(),
-                message: "the geometry's bounds are empty or not finite".into(),
-            });
-        }
-        Ok((lo, hi, scale))
-    }
-
     fn finish(
         mut self,
         path: &Path,
@@ -752,7 +860,11 @@ impl Builder {
         } else {
             self.uvs.iter().map(|&uv| TriUv { uv }).collect()
         };
-        let (lo, hi, scale) = self.world_bounds(path)?;
+        let (lo, hi, scale) = world_bounds(&self.objects, &self.tris).map_err(|message| Error::SceneValue {
+            path: path.into(),
+            key: "object".into(),
+            message,
+        })?;
         let camera = match camera {
             Some(c) => Camera::from_entry(c, path)?,
             None => Camera::framing(lo, hi),
@@ -772,6 +884,8 @@ impl Builder {
             textures,
             texels,
             srgb,
+            light_names: (0..lights.len()).map(|i| format!("light{i}")).collect(),
+            light_tables: Vec::new(),
             lights,
             camera,
             bounds: (lo, hi),

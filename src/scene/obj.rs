@@ -84,8 +84,9 @@ fn quote(s: &str) -> String {
 }
 
 /// Loads `rel` from `source`; it and its material libraries may have at most `limit`
-/// bytes each.
-pub fn load(source: &Source, rel: &Path, limit: u64) -> Result<LoadedMesh> {
+/// bytes each. With `groups`, only the faces of those `o`/`g` groups are kept (each must
+/// exist).
+pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) -> Result<LoadedMesh> {
     let shown = source.display(rel);
     let bytes = source.read_limited(rel, limit)?;
     let text = String::from_utf8_lossy(&bytes);
@@ -154,6 +155,34 @@ pub fn load(source: &Source, rel: &Path, limit: u64) -> Result<LoadedMesh> {
         notes: notes.into_inner(),
         inputs: inputs.into_inner(),
         ..Default::default()
+    };
+    let models = match groups {
+        None => models,
+        Some(names) => {
+            if let Some(missing) = names.iter().find(|g| !models.iter().any(|m| &m.name == *g)) {
+                let mut have: Vec<&str> = Vec::new();
+                for m in &models {
+                    if !have.contains(&m.name.as_str()) {
+                        have.push(&m.name);
+                    }
+                }
+                let shown_have: Vec<&str> = have.iter().take(40).copied().collect();
+                return Err(Error::Mesh {
+                    path: shown,
+                    line: None,
+                    message: format!(
+                        "has no group `{missing}` (its o/g groups: {}{})",
+                        if have.is_empty() {
+                            "none".to_string()
+                        } else {
+                            shown_have.join(", ")
+                        },
+                        if have.len() > 40 { ", …" } else { "" }
+                    ),
+                });
+            }
+            models.into_iter().filter(|m| names.contains(&m.name)).collect()
+        }
     };
     add_triangles(&models, &mut out);
     if out.unassigned > 0 {

@@ -21,11 +21,131 @@ use crate::layout::{LIGHT_DIRECTIONAL, LIGHT_SPOT};
 
 /// Side flags, two per global triangle: `2t` is the side the geometric normal points to.
 pub fn reachable_sides(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool> {
-    let hit = trace_marks(scene, paths, bounces, seed);
-    let mut uf = UnionFind::new(hit.len());
-    for o in &scene.objects {
-        join_edges(scene, o.tri_offset, o.tri_count, &mut uf);
+    flood(scene, trace_marks(scene, paths, bounces, seed))
+}
+
+/// Which sides get nodes under `reach = "object"`, and what could change that.
+///
+/// An object's sides are those light from anywhere outside it could reach (both sides of
+/// an open sheet, the outside of a closed mesh), plus the enclosures a point or spot light
+/// sits in (the inside of a closed room or of the furnace sphere): from each such light,
+/// 64 rays in every direction mark the first side of the object they meet. Marks flood
+/// across manifold edges, so a light only matters through which connected surface it
+/// sees first: moving it within a room, or turning it, changes nothing, and the object's
+/// nodes depend on the object alone. Moving a light into or out of an enclosure changes
+/// the sides, and then the hierarchy is built again ([`ObjectReach::sides_for`]).
+#[derive(Clone, Debug, Default)]
+pub struct ObjectReach {
+    /// The sides reachable from outside, flooded.
+    outside: Vec<bool>,
+    /// Each side's connected component (its union-find root).
+    component: Vec<u32>,
+}
+
+impl ObjectReach {
+    /// Traces the lines from outside every object and records the components.
+    pub fn new(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> ObjectReach {
+        let marks = outside_marks(scene, paths, bounces, seed);
+        let mut uf = components(scene, marks.len());
+        let component: Vec<u32> = (0..marks.len() as u32).map(|s| uf.find(s)).collect();
+        let mut hit = vec![false; marks.len()];
+        for (s, &m) in marks.iter().enumerate() {
+            if m {
+                hit[component[s] as usize] = true;
+            }
+        }
+        ObjectReach {
+            outside: component.iter().map(|&c| hit[c as usize]).collect(),
+            component,
+        }
     }
+
+    /// The sides for the scene's lights as they are now placed.
+    pub fn sides_for(&self, scene: &Scene) -> Vec<bool> {
+        let mut lit = vec![false; self.component.len()];
+        for l in scene.lights.iter().filter(|l| l.kind != LIGHT_DIRECTIONAL) {
+            for o in &scene.objects {
+                let p = crate::geom::transform::xform_point(&o.to_object, Vec3::from(l.position));
+                for k in 0..64u32 {
+                    let u = Vec2::new((k as f32 + 0.5) / 64.0, (k as f32 * 0.618_034).fract());
+                    let ray = Ray {
+                        o: p,
+                        d: uniform_sphere(u),
+                    };
+                    if let Some((t, _, _, _)) =
+                        crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
+                    {
+                        let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
+                        let back = g.dot(ray.d) > 0.0;
+                        lit[self.component[t as usize * 2 + back as usize] as usize] = true;
+                    }
+                }
+            }
+        }
+        self.outside
+            .iter()
+            .zip(&self.component)
+            .map(|(&o, &c)| o || lit[c as usize])
+            .collect()
+    }
+}
+
+/// The sides light from anywhere outside each object could reach, unflooded: per object,
+/// `paths` lines uniform over the lines meeting its bounding sphere (through two uniform
+/// points of the sphere), each followed for `bounces` diffuse bounces within the object
+/// alone, in object space.
+fn outside_marks(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool> {
+    let marks: Vec<AtomicBool> = (0..scene.tris.len() * 2).map(|_| AtomicBool::new(false)).collect();
+    for (i, o) in scene.objects.iter().enumerate() {
+        let tris = &scene.tris[o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize];
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for t in tris {
+            for v in [t.v0, t.v1, t.v2] {
+                lo = lo.min(Vec3::from(v));
+                hi = hi.max(Vec3::from(v));
+            }
+        }
+        let diag = (hi - lo).length();
+        let (c, r) = ((lo + hi) * 0.5, 0.5 * diag * 1.01 + 1e-6 * diag.max(1.0));
+        let chunk = 1024u32;
+        (0..paths.div_ceil(chunk)).into_par_iter().for_each(|k| {
+            let mut rng = Rng::new(seed as u64 ^ 0x0b1e_c7ed ^ (i as u64) << 40, k as u64);
+            for _ in k * chunk..((k + 1) * chunk).min(paths) {
+                let a = c + r * uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let b = c + r * uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+                let Some(d) = (b - a).try_normalize() else {
+                    continue;
+                };
+                let mut ray = Ray { o: a, d };
+                for _ in 0..bounces {
+                    let Some((t, dist, b1, b2)) =
+                        crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
+                    else {
+                        break;
+                    };
+                    let _ = dist;
+                    let tri = &scene.tris[t as usize];
+                    let g = crate::geom::ray::tri_normal(tri);
+                    let back = g.dot(ray.d) > 0.0;
+                    marks[t as usize * 2 + back as usize].store(true, Ordering::Relaxed);
+                    let n = if back { -g } else { g };
+                    let p = crate::geom::ray::tri_point(tri, b1, b2);
+                    let (tu, tv) = onb(n);
+                    let u = Vec2::new(rng.next_f32(), rng.next_f32());
+                    ray = Ray {
+                        o: crate::geom::ray::offset_origin(p, n, diag),
+                        d: cosine_direction(n, tu, tv, u, 0.0),
+                    };
+                }
+            }
+        });
+    }
+    marks.into_iter().map(AtomicBool::into_inner).collect()
+}
+
+/// The marked sides, flooded across manifold edges of each object.
+fn flood(scene: &Scene, hit: Vec<bool>) -> Vec<bool> {
+    let mut uf = components(scene, hit.len());
     let mut comp_hit = vec![false; hit.len()];
     for (s, &h) in hit.iter().enumerate() {
         if h {
@@ -33,6 +153,15 @@ pub fn reachable_sides(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Ve
         }
     }
     (0..hit.len()).map(|s| comp_hit[uf.find(s as u32) as usize]).collect()
+}
+
+/// The sides joined across manifold edges of each object.
+fn components(scene: &Scene, sides: usize) -> UnionFind {
+    let mut uf = UnionFind::new(sides);
+    for o in &scene.objects {
+        join_edges(scene, o.tri_offset, o.tri_count, &mut uf);
+    }
+    uf
 }
 
 fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Ray {

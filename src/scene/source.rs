@@ -6,9 +6,10 @@ use std::path::{Path, PathBuf};
 use crate::error::{Error, Result};
 use crate::limits::MAX_MESH_BYTES;
 
-/// The shipped Cornell box, embedded.
+/// The shipped Cornell box, embedded (whole, and in parts for editing).
 pub const EMBEDDED_CORNELL: &[(&str, &[u8])] = &[
     ("cornell_box.toml", include_bytes!("../../scenes/cornell_box.toml")),
+    ("cornell_parts.toml", include_bytes!("../../scenes/cornell_parts.toml")),
     (
         "cornell_original_mm.obj",
         include_bytes!("../../scenes/cornell_original_mm.obj"),
