@@ -202,3 +202,31 @@ fn area_probes_cover_the_surfaces_that_receive_light_uniformly() {
         "{upper} of {n} in the upper half"
     );
 }
+
+/// `bench edit` at CI size on the CPU and lavapipe: every frame solved as an edit and
+/// fresh, the table and the CSV written.
+#[test]
+fn edit_smoke() {
+    let dir = common::tmpdir();
+    let o = meshrad(
+        &[
+            "bench", "edit", "--smoke", "--scenes", "cornell", "--frames", "3", "--backend", "both", "--out", "e", "-q",
+        ],
+        dir.path(),
+    );
+    let text = String::from_utf8_lossy(&o.stdout);
+    for needle in ["| cornell | cpu |", "| cornell | gpu (", "update / frame", "frame / fresh rest"] {
+        assert!(text.contains(needle), "`{needle}` not in\n{text}");
+    }
+    let csv = std::fs::read_to_string(dir.path().join("e/edit.csv")).unwrap();
+    // Header and 3 frames per backend; frames 1 and 2 recomputed some clips, not all.
+    let rows: Vec<&str> = csv.lines().collect();
+    assert_eq!(rows.len(), 1 + 2 * 3, "{csv}");
+    for r in &rows[1..] {
+        let f: Vec<&str> = r.rsplitn(9, ',').collect();
+        // From the right: fresh_total, fresh_rest, fresh_build, fresh_load, rebuilt, nodes, parents, clips.
+        let (nodes, clips): (usize, usize) = (f[5].parse().unwrap(), f[7].parse().unwrap());
+        assert_eq!(f[4], "false", "{r}");
+        assert!(clips < nodes, "{r}");
+    }
+}

@@ -321,9 +321,9 @@ pub fn csv(rows: &[FrameRow]) -> String {
     );
     for r in rows {
         s += &format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.scene,
-            r.backend,
+            r.backend.replace('"', "'"),
             r.frame,
             r.update,
             r.direct,

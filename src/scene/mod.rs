@@ -316,7 +316,7 @@ impl Scene {
     }
 
     /// Replaces light `i` by the light `table` describes (the keys of a `[[light]]`, less
-    /// `name`), parsed as a scene file's; `index` names it in errors.
+    /// `name`), parsed as a scene file's (errors name `light[i]`).
     pub fn set_light(&mut self, i: usize, table: toml::Table) -> Result<()> {
         let l = light::from_table(&table, i, &self.path)?;
         let mut lights = self.lights.clone();
