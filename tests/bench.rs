@@ -210,12 +210,28 @@ fn edit_smoke() {
     let dir = common::tmpdir();
     let o = meshrad(
         &[
-            "bench", "edit", "--smoke", "--scenes", "cornell", "--frames", "3", "--backend", "both", "--out", "e", "-q",
+            "bench",
+            "edit",
+            "--smoke",
+            "--scenes",
+            "cornell",
+            "--frames",
+            "3",
+            "--backend",
+            "both",
+            "--out",
+            "e",
+            "-q",
         ],
         dir.path(),
     );
     let text = String::from_utf8_lossy(&o.stdout);
-    for needle in ["| cornell | cpu |", "| cornell | gpu (", "update / frame", "frame / fresh rest"] {
+    for needle in [
+        "| cornell | cpu |",
+        "| cornell | gpu (",
+        "update / frame",
+        "frame / fresh rest",
+    ] {
         assert!(text.contains(needle), "`{needle}` not in\n{text}");
     }
     let csv = std::fs::read_to_string(dir.path().join("e/edit.csv")).unwrap();

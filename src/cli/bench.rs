@@ -159,6 +159,20 @@ pub struct Table2Args {
     quiet: bool,
 }
 
+impl Backends {
+    /// The backends to run: `None` for the CPU, the device's context for the GPU.
+    fn contexts(self, device: Option<&str>) -> Result<Vec<Option<Arc<Context>>>> {
+        let mut v = Vec::new();
+        if self != Backends::Gpu {
+            v.push(None);
+        }
+        if self != Backends::Cpu {
+            v.push(Some(gpu(device)?));
+        }
+        Ok(v)
+    }
+}
+
 fn gpu(device: Option<&str>) -> Result<Arc<Context>> {
     Ok(Arc::new(Context::new(&ContextOptions::from_env(
         device.map(String::from),
@@ -178,13 +192,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
 fn run_accuracy(a: AccuracyArgs) -> Result<()> {
     let progress = Progress::new(a.quiet);
     output::ensure_dir(&a.out)?;
-    let mut backends = Vec::new();
-    if a.backend != Backends::Gpu {
-        backends.push(None);
-    }
-    if a.backend != Backends::Cpu {
-        backends.push(Some(gpu(a.device.as_deref())?));
-    }
+    let backends = a.backend.contexts(a.device.as_deref())?;
     let opts = accuracy::AccuracyOptions {
         probes: a.probes,
         reference_samples: a.reference_samples,
@@ -394,13 +402,7 @@ fn run_edit(a: EditArgs) -> Result<()> {
         anyhow::bail!("--frames {}: at least 2 (the scene as loaded, then edits)", a.frames);
     }
     output::ensure_dir(&a.out)?;
-    let mut backends = Vec::new();
-    if a.backend != Backends::Gpu {
-        backends.push(None);
-    }
-    if a.backend != Backends::Cpu {
-        backends.push(Some(gpu(a.device.as_deref())?));
-    }
+    let backends = a.backend.contexts(a.device.as_deref())?;
     let mut rows = Vec::new();
     for name in &a.scenes {
         let spec = edit::SCENES
