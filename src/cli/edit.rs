@@ -87,7 +87,6 @@ fn frame_outputs(
     k: usize,
     dir: &Path,
     points: Option<&[probe::Probe]>,
-    t_frame: f64,
     progress: &Progress,
 ) -> Result<(output::Outputs, FrameTimes)> {
     let t = Instant::now();
@@ -100,8 +99,7 @@ fn frame_outputs(
         files.add(dir.join("probe.csv"), probe::csv(points, &values).into_bytes());
     }
     let outputs = t.elapsed().as_secs_f64();
-    let mut times = FrameTimes::of(&f.seconds, outputs);
-    times.total = times.total.max(t_frame);
+    let times = FrameTimes::of(&f.seconds, outputs);
     let stats = FrameStats {
         frame: k,
         changed: &f.changed,
@@ -179,7 +177,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         ed.apply(f, &format!("{}: frame {k}", a.frames.display()))?;
         let frame = ed.solve(&hidden)?;
         let dir = frame_dir(&a.out, k);
-        let (files, times) = frame_outputs(&ed, &frame, k, &dir, points.as_deref(), 0.0, &hidden)?;
+        let (files, times) = frame_outputs(&ed, &frame, k, &dir, points.as_deref(), &hidden)?;
         files.commit()?;
         let total = t.elapsed().as_secs_f64();
         if !a.solver.quiet {
@@ -336,7 +334,7 @@ impl Session {
                 output::check_outputs(&planned, &self.inputs)?;
                 let solved = self.ensure_solved()?;
                 let f = self.last.as_ref().expect("solved");
-                let (files, _) = frame_outputs(&self.ed, f, 0, &dir, None, 0.0, &self.progress)?;
+                let (files, _) = frame_outputs(&self.ed, f, 0, &dir, None, &self.progress)?;
                 let paths: Vec<String> = files.paths().map(|p| p.display().to_string()).collect();
                 files.commit()?;
                 Ok(json!({"ok": true, "solved": solved, "files": paths}))
