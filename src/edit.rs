@@ -405,14 +405,14 @@ impl Editor {
             return Err(Error::param("reach", "editing needs reach = \"object\""));
         }
         let t = Instant::now();
-        let hierarchy = Hierarchy::build(&scene, &params, progress)?;
+        let (hierarchy, gpu) = crate::run::build_hierarchy(&scene, &params, ctx.as_ref(), progress)?;
         Ok(Editor {
             arranged: Arrangement::of(&scene),
             scene,
             params,
             hierarchy,
             ctx,
-            gpu: None,
+            gpu,
             pending: Changed::default(),
             seconds_build: t.elapsed().as_secs_f64(),
         })
@@ -445,45 +445,55 @@ impl Editor {
             }
         }
         if changed.rebuild {
-            self.hierarchy = Hierarchy::build(&self.scene, &self.params, progress)?;
+            self.gpu = None;
+            let (h, gpu) = crate::run::build_hierarchy(&self.scene, &self.params, self.ctx.as_ref(), progress)?;
+            self.hierarchy = h;
+            self.gpu = gpu;
             changed.clips_computed = self.hierarchy.nodes.len();
             changed.parents_computed = self.hierarchy.nodes.len();
         } else if !changed.objects.is_empty() {
             let moved: Vec<usize> = (0..self.scene.objects.len())
                 .filter(|&o| self.scene.objects[o].transform != self.arranged.objects[o].transform)
                 .collect();
-            let (clips, parents) =
-                self.hierarchy
-                    .rearrange(&self.scene, &self.arranged, &moved, &self.params, progress);
+            let (clips, parents) = match (&self.ctx, self.gpu.as_mut()) {
+                // On the device, where the transport runs.
+                (Some(ctx), Some(r)) => {
+                    let a = r.arrange(
+                        ctx,
+                        &self.scene,
+                        &mut self.hierarchy,
+                        &self.params,
+                        Some((&self.arranged, &moved)),
+                        progress,
+                    )?;
+                    (a.clips_computed, a.parents_computed)
+                }
+                _ => self
+                    .hierarchy
+                    .rearrange(&self.scene, &self.arranged, &moved, &self.params, progress),
+            };
             changed.clips_computed = clips;
             changed.parents_computed = parents;
         }
         self.arranged = Arrangement::of(&self.scene);
         let update = t.elapsed().as_secs_f64();
-        let (solution, gpu) = match self.ctx.clone() {
-            None => crate::run::transport_on(&self.scene, &self.params, &self.hierarchy, None, 0, progress)?,
-            Some(ctx) => {
-                // Uploaded once; after an edit only the lights, transforms, clips and
-                // relations cross the bus (all of it again after a rebuild).
-                let mut b = match self.gpu.take() {
-                    Some(r) if !changed.rebuild => GpuBackend::resume(
-                        ctx,
-                        r,
-                        &self.scene,
-                        &self.hierarchy,
-                        &self.params,
-                        !changed.objects.is_empty(),
-                    )?,
-                    _ => {
-                        progress.stage("uploading to the GPU");
-                        GpuBackend::new(ctx, &self.scene, &self.hierarchy, &self.params)?
-                    }
-                };
+        if let (Some(ctx), None) = (&self.ctx, &self.gpu) {
+            // A failed solve left nothing on the device: upload and arrange again.
+            let mut r = GpuResident::new(ctx, &self.scene, &self.hierarchy, &self.params)?;
+            r.arrange(ctx, &self.scene, &mut self.hierarchy, &self.params, None, progress)?;
+            self.gpu = Some(r);
+        }
+        let (solution, gpu) = match (self.ctx.clone(), self.gpu.take()) {
+            (Some(ctx), Some(r)) => {
+                // Uploaded once; after an edit only the lights, transforms, the computed
+                // clips' selection and the relations cross the bus (`GpuResident::arrange`).
+                let mut b = GpuBackend::resume(ctx, r, &self.scene, &self.hierarchy, &self.params)?;
                 let s = crate::transport::solve(&self.params, &mut b, progress)?;
                 let report = b.report.clone();
                 self.gpu = Some(b.suspend());
                 (s, Some(report))
             }
+            _ => crate::run::transport_on(&self.scene, &self.params, &self.hierarchy, None, 0, progress)?,
         };
         let seconds = FrameSeconds {
             update,

@@ -5,7 +5,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use crate::error::Result;
-use crate::gpu::backend::GpuReport;
+use crate::gpu::backend::{GpuReport, GpuResident};
 use crate::gpu::{Context, GpuBackend};
 use crate::hierarchy::Hierarchy;
 use crate::params::SolverParams;
@@ -29,10 +29,17 @@ pub struct Run {
 pub fn solve(scene: &Scene, params: &SolverParams, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Run> {
     params.validate()?;
     let t = Instant::now();
-    let hierarchy = Hierarchy::build(scene, params, progress)?;
+    let (hierarchy, resident) = build_hierarchy(scene, params, ctx.as_ref(), progress)?;
     let seconds_hierarchy = t.elapsed().as_secs_f64();
     let t = Instant::now();
-    let (solution, gpu) = transport_on(scene, params, &hierarchy, ctx, 0, progress)?;
+    let (solution, gpu) = match (ctx, resident) {
+        (Some(ctx), Some(r)) => {
+            let mut b = GpuBackend::resume(ctx, r, scene, &hierarchy, params)?;
+            let s = transport::solve(params, &mut b, progress)?;
+            (s, Some(b.report.clone()))
+        }
+        _ => transport_on(scene, params, &hierarchy, None, 0, progress)?,
+    };
     Ok(Run {
         hierarchy,
         solution,
@@ -40,6 +47,26 @@ pub fn solve(scene: &Scene, params: &SolverParams, ctx: Option<Arc<Context>>, pr
         seconds_hierarchy,
         seconds_solve: t.elapsed().as_secs_f64(),
     })
+}
+
+/// The hierarchy of `scene` for solves on the CPU (`ctx = None`: [`Hierarchy::build`])
+/// or on the device of `ctx`: there the scene and the hierarchy's nodes are uploaded and
+/// the support clips computed where the transport runs ([`GpuResident::arrange`]), and
+/// what stays on the device comes back with the hierarchy.
+pub fn build_hierarchy(
+    scene: &Scene,
+    params: &SolverParams,
+    ctx: Option<&Arc<Context>>,
+    progress: &Progress,
+) -> Result<(Hierarchy, Option<GpuResident>)> {
+    let Some(ctx) = ctx else {
+        return Ok((Hierarchy::build(scene, params, progress)?, None));
+    };
+    let mut h = Hierarchy::build_unarranged(scene, params, progress)?;
+    progress.stage("uploading to the GPU");
+    let mut r = GpuResident::new(ctx, scene, &h, params)?;
+    r.arrange(ctx, scene, &mut h, params, None, progress)?;
+    Ok((h, Some(r)))
 }
 
 /// The bounce loop for a built hierarchy on the CPU (`ctx = None`) or a device, after

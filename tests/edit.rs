@@ -160,6 +160,86 @@ fn frames_equal_fresh_solves_gpu() {
     frames_equal_fresh_solves(Some(Arc::new(ctx)));
 }
 
+/// The arrangement on the device (`meshrad::gpu::arrange`: clips and relations) against
+/// the CPU's: on the Cornell box in parts, as built and after the tall block moved (frame
+/// 1 of [`frames`]), the clips and parent lists are the same but for float rounding (a
+/// ray grazing an edge, a distance on a quantisation step), and the same nodes' clips and
+/// lists are computed again.
+#[test]
+fn device_clips_match_the_cpu() {
+    let ctx = Arc::new(
+        Context::new(&ContextOptions {
+            validation: true,
+            device: std::env::var("MESHRAD_TEST_DEVICE").ok(),
+        })
+        .unwrap_or_else(|e| panic!("no usable Vulkan device with validation: {e}")),
+    );
+    let dir = common::tmpdir();
+    let (scene, params) = load(dir.path(), "c.toml", &cornell("", SPOT, SMALL));
+    let mut cpu = Editor::new(scene.clone(), params.clone(), None, &Progress::hidden()).unwrap();
+    let mut gpu = Editor::new(scene, params, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let agree = |a: &Hierarchy, b: &Hierarchy, what: &str| {
+        assert_eq!(bytes(&a.nodes), bytes(&b.nodes), "{what}: nodes");
+        let n = a.nodes.len();
+        let same = a.clips.iter().zip(&b.clips).filter(|(x, y)| x == y).count();
+        let clipped = a
+            .clips
+            .iter()
+            .filter(|c| **c != meshrad::hierarchy::weight::NO_CLIP)
+            .count();
+        assert!(clipped > n / 20, "{what}: {clipped} of {n} nodes clipped");
+        assert!(
+            same as f64 >= 0.995 * n as f64,
+            "{what}: {same} of {n} clips agree ({clipped} clipped)"
+        );
+        // The relations built on the device: the same parents with the same weights but
+        // for rounding, the same children in the same order, the same holes and orphans.
+        let lists_same = (0..n)
+            .filter(|&c| {
+                let (x, y) = (a.parents_of(c), b.parents_of(c));
+                x.len() == y.len()
+                    && x.iter()
+                        .zip(y)
+                        .all(|(p, q)| p.node == q.node && (p.weight - q.weight).abs() <= 1e-5)
+            })
+            .count();
+        assert!(a.parents.len() > n / 2, "{what}: {} parents", a.parents.len());
+        assert!(
+            lists_same as f64 >= 0.995 * n as f64,
+            "{what}: {lists_same} of {n} parent lists agree"
+        );
+        let children_same = (0..n).filter(|&j| a.children_of(j) == b.children_of(j)).count();
+        assert!(
+            children_same as f64 >= 0.995 * n as f64,
+            "{what}: {children_same} of {n} children lists agree"
+        );
+        assert_eq!(a.parents.len(), b.children.len(), "{what}: one child per parent entry");
+        assert_eq!(
+            a.stats.parent_holes_per_level, b.stats.parent_holes_per_level,
+            "{what}: holes"
+        );
+        assert_eq!(a.stats.orphans_per_level, b.stats.orphans_per_level, "{what}: orphans");
+        println!("{what}: {same} of {n} clips agree, {clipped} clipped; {lists_same} parent lists agree");
+    };
+    agree(&cpu.hierarchy, &gpu.hierarchy, "as built");
+    let e = &frames()[1].0;
+    cpu.apply(e, "frame 1").unwrap();
+    gpu.apply(e, "frame 1").unwrap();
+    let fc = cpu.solve(&Progress::hidden()).unwrap();
+    let fg = gpu.solve(&Progress::hidden()).unwrap();
+    agree(&cpu.hierarchy, &gpu.hierarchy, "after the move");
+    for (what, a, b) in [
+        ("clips", fc.changed.clips_computed, fg.changed.clips_computed),
+        ("parent lists", fc.changed.parents_computed, fg.changed.parents_computed),
+    ] {
+        assert!(
+            a > 0 && a < cpu.hierarchy.nodes.len() / 2 && a.abs_diff(b) <= a / 1000 + 1,
+            "{what} computed after the move: CPU {a}, device {b}"
+        );
+    }
+    assert_eq!(ctx.validation_errors(), 0);
+}
+
 /// An object's nodes do not depend on where it is: moving the tall block leaves every
 /// node (object space) as it was; only clips and parent weights follow the arrangement.
 #[test]

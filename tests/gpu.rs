@@ -415,3 +415,51 @@ fn cwbvh_matches_bvh2() {
     }
     assert_eq!(ctx.validation_errors(), 0);
 }
+
+/// Kernel `scan` (the relations' CSR offsets on the device) against a prefix sum on the
+/// host: sizes around its block (256 words) and past one workgroup's walk of the block
+/// totals (256 blocks), including a million words.
+#[test]
+fn scan_matches_a_prefix_sum() {
+    use meshrad::gpu::buffer::Buffer;
+    use meshrad::gpu::kernels::scan::Scan;
+    use meshrad::gpu::kernels::Recorder;
+    use meshrad::gpu::pipeline::Specialization;
+    use meshrad::gpu::profiler::Profiler;
+
+    let ctx = context();
+    let spec = Specialization {
+        variant: meshrad::constants::VARIANT_APPROX,
+        textured: false,
+        bvh: meshrad::constants::BVH_BVH2,
+    };
+    let scan = Scan::new(&ctx, spec).unwrap();
+    let mut prof = Profiler::new(&ctx).unwrap();
+    for n in [1usize, 255, 256, 257, 65_537, 1_000_003] {
+        let data: Vec<u32> = (0..n as u32)
+            .map(|i| (i.wrapping_mul(2_654_435_761) >> 28) % 9)
+            .collect();
+        let buf = Buffer::upload(&ctx, "data", &data[..]).unwrap();
+        let sums = Buffer::zeroed(&ctx, "sums", 4 * Scan::blocks(n as u64)).unwrap();
+        ctx.run(|cmd| {
+            prof.begin_frame(cmd);
+            let mut rec = Recorder {
+                ctx: &ctx,
+                prof: &mut prof,
+                cmd,
+                globals: 0,
+            };
+            scan.record(&mut rec, buf.address, sums.address, n as u32);
+            Ok(())
+        })
+        .unwrap();
+        prof.end_frame().unwrap();
+        let got: Vec<u32> = buf.download(0, n).unwrap();
+        let mut acc = 0u32;
+        for (i, (&g, &d)) in got.iter().zip(&data).enumerate() {
+            assert_eq!(g, acc, "n = {n}: offset {i}");
+            acc += d;
+        }
+    }
+    assert_eq!(ctx.validation_errors(), 0);
+}

@@ -11,8 +11,8 @@ use std::process::Command;
 
 use meshrad::gpu::globals::Globals;
 use meshrad::gpu::kernels::{
-    accumulate::AccumulatePush, batches::BatchesPush, compact::CompactPush, delta::DeltaPush, direct::DirectPush,
-    energy::EnergyPush, gather::GatherPush, oracle::OraclePush, pulldown::PulldownPush,
+    accumulate::AccumulatePush, batches::BatchesPush, clips::ClipsPush, compact::CompactPush, delta::DeltaPush,
+    direct::DirectPush, energy::EnergyPush, gather::GatherPush, oracle::OraclePush, pulldown::PulldownPush,
 };
 use meshrad::layout::*;
 
@@ -241,6 +241,20 @@ fn gpu_struct_offsets_match_the_host_structs() {
         batch_size,
         count_slot,
         max_groups_x
+    );
+    check("ClipsPush", "g", offset_of!(ClipsPush, globals));
+    same!(
+        ClipsPush,
+        "ClipsPush",
+        box_list,
+        moved,
+        out_nodes,
+        out_clips,
+        out_count,
+        count,
+        boxes,
+        eps,
+        pad0
     );
     check("GatherPush", "g", offset_of!(GatherPush, globals));
     same!(

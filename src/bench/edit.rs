@@ -49,15 +49,7 @@ pub const SCENES: [EditScene; 3] = [
 
 /// The world-space centre of object `o`'s bounds (under its transform at load).
 fn centre(scene: &Scene, o: usize) -> Vec3 {
-    let obj = &scene.objects[o];
-    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for t in &scene.tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
-        for v in [t.v0, t.v1, t.v2] {
-            let w = crate::geom::transform::xform_point(&obj.to_world, Vec3::from(v));
-            lo = lo.min(w);
-            hi = hi.max(w);
-        }
-    }
+    let (lo, hi) = crate::scene::object_box(&scene.objects[o], &scene.tris);
     (lo + hi) * 0.5
 }
 
@@ -226,11 +218,19 @@ pub fn run_scene(
         for (j, ej) in edits[..=k].iter().enumerate() {
             edit::apply(&mut fresh, ej, &format!("frame {j}"))?;
         }
+        // As `meshrad solve` does it: on a device, the build ends with the upload and the
+        // arrangement there (`run::build_hierarchy`); the rest is the transport.
         let t = Instant::now();
-        let h = Hierarchy::build(&fresh, &p, &hidden)?;
+        let (h, resident) = crate::run::build_hierarchy(&fresh, &p, ctx.as_ref(), &hidden)?;
         let fresh_build = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let (sol, _) = crate::run::transport_on(&fresh, &p, &h, ctx.clone(), 0, &hidden)?;
+        let sol = match (ctx.clone(), resident) {
+            (Some(c), Some(r)) => {
+                let mut b = crate::gpu::GpuBackend::resume(c, r, &fresh, &h, &p)?;
+                crate::transport::solve(&p, &mut b, &hidden)?
+            }
+            _ => crate::run::transport_on(&fresh, &p, &h, None, 0, &hidden)?.0,
+        };
         outputs(&fresh, &h, &sol, &p)?;
         let fresh_rest = t.elapsed().as_secs_f64();
         rows.push(FrameRow {

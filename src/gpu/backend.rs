@@ -8,6 +8,7 @@ use std::time::Instant;
 
 use glam::Vec4;
 
+use super::arrange::{ArrangeKernels, Arranged};
 use super::context::Context;
 use super::globals::RAY_BYTES;
 use super::kernels::{Kernels, Recorder};
@@ -20,8 +21,9 @@ use crate::constants::{
     LIGHT_COUNTERS, VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
 };
 use crate::error::{Error, Result};
-use crate::hierarchy::Hierarchy;
+use crate::hierarchy::{Arrangement, ClipSelection, Hierarchy};
 use crate::params::{BvhKind, SolverParams, Variant};
+use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::transport::{Backend, Energy, FusedBounce, NodeValues, Refined};
 
@@ -47,7 +49,13 @@ pub struct GpuReport {
     pub driver: String,
     pub api_version: String,
     pub batch_integrals: u32,
+    /// Bytes sent to the device for this solve (the whole scene for a fresh one; after
+    /// an edit the lights, `Globals`, and after a move the transforms and the clip
+    /// selection).
     pub bytes_uploaded: u64,
+    /// Bytes the arrangement on the device read back before this solve (the changed
+    /// clips and the relations: `super::arrange`; 0 when nothing moved).
+    pub arrange_bytes_read_back: u64,
     /// CWBVH nodes built (0 unless `bvh = "cwbvh"`).
     pub cwbvh_nodes: usize,
     pub seconds_upload: f64,
@@ -68,6 +76,7 @@ pub struct GpuBackend<'a> {
     h: &'a Hierarchy,
     p: SolverParams,
     k: Kernels,
+    arrange: ArrangeKernels,
     prof: Profiler,
     res: Resources,
     batch: u32,
@@ -84,6 +93,8 @@ pub struct GpuBackend<'a> {
 /// kd-trees, the per-node state. [`GpuBackend::resume`] uploads only what an edit changed.
 pub struct GpuResident {
     k: Kernels,
+    /// The arrangement's kernels (run by [`GpuResident::arrange`], before a solve).
+    arrange: ArrangeKernels,
     prof: Profiler,
     res: Resources,
     batch: u32,
@@ -107,19 +118,20 @@ fn specialization(p: &SolverParams, scene: &Scene) -> Specialization {
     }
 }
 
-impl<'a> GpuBackend<'a> {
+impl GpuResident {
     /// Builds the pipelines, the CWBVH if `p` asks for it, and uploads the scene and
-    /// hierarchy.
-    pub fn new(ctx: Arc<Context>, scene: &'a Scene, h: &'a Hierarchy, p: &SolverParams) -> Result<GpuBackend<'a>> {
-        let p = p.clone();
+    /// hierarchy (its clips and relations as they are: [`GpuResident::arrange`] computes
+    /// them on the device).
+    pub fn new(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<GpuResident> {
         let t = Instant::now();
-        let k = Kernels::new(&ctx, specialization(&p, scene))?;
+        let spec = specialization(p, scene);
+        let k = Kernels::new(ctx, spec)?;
+        let arrange = ArrangeKernels::new(ctx, spec)?;
         let seconds_pipelines = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let batch = batch_size(&ctx, &p);
-        let cw = Cwbvh::build(scene, &p);
-        let res = Resources::new(&ctx, scene, h, &p, &cw, batch)?;
-        let cw_roots = cw.roots.clone();
+        let batch = batch_size(ctx, p);
+        let cw = Cwbvh::build(scene, p);
+        let res = Resources::new(ctx, scene, h, p, &cw, batch)?;
         let report = GpuReport {
             device: ctx.info.name.clone(),
             driver: format!("{} {}", ctx.info.driver_name, ctx.info.driver_info),
@@ -129,58 +141,114 @@ impl<'a> GpuBackend<'a> {
             cwbvh_nodes: cw.nodes.len(),
             seconds_upload: t.elapsed().as_secs_f64(),
             seconds_pipelines,
-            skipped: skipped_by_construction(&p, scene),
+            skipped: skipped_by_construction(p, scene),
             ..Default::default()
         };
-        Ok(GpuBackend {
-            prof: Profiler::new(&ctx)?,
-            ctx,
-            h,
-            p,
+        Ok(GpuResident {
+            prof: Profiler::new(ctx)?,
             k,
+            arrange,
             res,
             batch,
-            active_count: 0,
-            lights: scene.lights.len(),
-            cw_roots,
+            cw_roots: cw.roots,
             report,
         })
     }
 
-    /// Keeps what is on the device for the next solve of an editing session.
+    /// Brings `h` (and its copy on the device) to `scene`'s arrangement on the device
+    /// ([`super::arrange::arrange`]), where the transport runs: every node's clip and
+    /// parent list (`moved = None`: a hierarchy from [`Hierarchy::build_unarranged`]), or
+    /// after the objects `moved` were placed anew (`before`: the arrangement `h` has)
+    /// those the move can change ([`ClipSelection::after`]). Uploads the moved objects'
+    /// transforms first.
+    pub fn arrange(
+        &mut self,
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        h: &mut Hierarchy,
+        p: &SolverParams,
+        moved: Option<(&Arrangement, &[usize])>,
+        progress: &Progress,
+    ) -> Result<Arranged> {
+        let mut up = 0;
+        let sel = match moved {
+            None => ClipSelection::All,
+            Some((before, objects)) => {
+                up += self.res.upload_objects(ctx, scene, h, &self.cw_roots)?;
+                ClipSelection::after(scene, before, objects)
+            }
+        };
+        up += self.res.write_globals(ctx, scene, h, p)?;
+        let mut a = super::arrange::arrange(
+            ctx,
+            &self.arrange,
+            &mut self.prof,
+            &mut self.res,
+            scene,
+            h,
+            p,
+            &sel,
+            progress,
+        )?;
+        if matches!(sel, ClipSelection::All) {
+            a.clips_computed = h.nodes.len();
+            a.parents_computed = h.nodes.len();
+        }
+        a.bytes_up += up;
+        self.report.bytes_uploaded += a.bytes_up;
+        self.report.arrange_bytes_read_back += a.bytes_down;
+        Ok(a)
+    }
+}
+
+impl<'a> GpuBackend<'a> {
+    /// Builds the pipelines, the CWBVH if `p` asks for it, and uploads the scene and
+    /// hierarchy (as arranged on the host).
+    pub fn new(ctx: Arc<Context>, scene: &'a Scene, h: &'a Hierarchy, p: &SolverParams) -> Result<GpuBackend<'a>> {
+        let r = GpuResident::new(&ctx, scene, h, p)?;
+        GpuBackend::resume(ctx, r, scene, h, p)
+    }
+
+    /// Keeps what is on the device for the next solve of an editing session (its report
+    /// counts what the next solve sends anew).
     pub fn suspend(self) -> GpuResident {
+        let mut report = self.report;
+        report.bytes_uploaded = 0;
+        report.arrange_bytes_read_back = 0;
+        report.seconds_upload = 0.0;
+        report.seconds_pipelines = 0.0;
         GpuResident {
             k: self.k,
+            arrange: self.arrange,
             prof: self.prof,
             res: self.res,
             batch: self.batch,
             cw_roots: self.cw_roots,
-            report: self.report,
+            report,
         }
     }
 
-    /// The backend again over resident state `r`, for the same hierarchy's nodes (`h`
-    /// arranged anew after objects moved: `moved`), after uploading the lights and, if
-    /// objects moved, the transforms, clips and relations (`Resources::rearrange`).
+    /// The backend over resident state `r`, for the same hierarchy's nodes `h` (as
+    /// [`GpuResident::arrange`] left it, if objects moved), after uploading the lights
+    /// (and rewriting `Globals`). Its report counts what was sent since `r` was made or
+    /// suspended.
     pub fn resume(
         ctx: Arc<Context>,
         r: GpuResident,
         scene: &Scene,
         h: &'a Hierarchy,
         p: &SolverParams,
-        moved: bool,
     ) -> Result<GpuBackend<'a>> {
         let mut r = r;
         let t = Instant::now();
-        let bytes = r.res.rearrange(&ctx, scene, h, p, &r.cw_roots, moved)?;
-        r.report.bytes_uploaded = bytes;
-        r.report.seconds_upload = t.elapsed().as_secs_f64();
-        r.report.seconds_pipelines = 0.0;
+        r.report.bytes_uploaded += r.res.relight(&ctx, scene, h, p)?;
+        r.report.seconds_upload += t.elapsed().as_secs_f64();
         Ok(GpuBackend {
             ctx,
             h,
             p: p.clone(),
             k: r.k,
+            arrange: r.arrange,
             prof: r.prof,
             res: r.res,
             batch: r.batch,

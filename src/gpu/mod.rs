@@ -3,6 +3,7 @@
 //! timestamps, and the transport backend that runs the whole bounce loop on the device.
 //! Nothing outside this module imports `ash`.
 
+pub mod arrange;
 pub mod backend;
 pub mod buffer;
 pub mod context;

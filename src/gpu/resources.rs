@@ -239,48 +239,55 @@ impl Resources {
 }
 
 impl Resources {
-    /// After an edit: uploads what depends on the arrangement and the lights (the
-    /// lights, the objects' transforms, the support clips and the parent and child
-    /// relations; `moved` false: the lights alone) and rewrites `Globals`. Triangles,
-    /// BVHs, textures, nodes and kd-trees stay resident. Returns the bytes uploaded.
-    pub fn rearrange(
+    /// Rewrites `Globals` (after a buffer it names was made anew, or the lights changed).
+    pub fn write_globals(&mut self, ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<u64> {
+        let g = globals(&self.scene, &self.state, &self.batch, scene, h, p);
+        self.globals = Buffer::upload(ctx, "globals", bytemuck::bytes_of(&g))?;
+        Ok(std::mem::size_of::<Globals>() as u64)
+    }
+
+    /// After an edit of the lights alone: uploads the lights and rewrites `Globals`.
+    /// Triangles, BVHs, textures, nodes, kd-trees, clips and relations stay resident.
+    /// Returns the bytes uploaded.
+    pub fn relight(&mut self, ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<u64> {
+        self.scene.lights = Buffer::upload(ctx, "lights", &scene.lights[..])?;
+        Ok(self.scene.lights.size + self.write_globals(ctx, scene, h, p)?)
+    }
+
+    /// After objects moved: uploads their transforms (`ObjectInfo`, with each object's
+    /// CWBVH root `cw_roots`). `Globals` must be written again before a kernel reads them.
+    pub fn upload_objects(
         &mut self,
         ctx: &Arc<Context>,
         scene: &Scene,
         h: &Hierarchy,
-        p: &SolverParams,
         cw_roots: &[u32],
-        moved: bool,
     ) -> Result<u64> {
+        let mut objects = h.object_infos(scene);
+        for (info, &root) in objects.iter_mut().zip(cw_roots) {
+            info.cw_root = root;
+        }
+        self.scene.objects = Buffer::upload(ctx, "objects", &objects[..])?;
+        Ok(self.scene.objects.size)
+    }
+
+    /// Uploads the hierarchy's clips (when they were not computed on the device).
+    pub fn upload_clips(&mut self, ctx: &Arc<Context>, h: &Hierarchy) -> Result<u64> {
+        self.scene.clips = Buffer::upload(ctx, "support clips", &h.clips[..])?;
+        Ok(self.scene.clips.size)
+    }
+
+    /// Uploads the parent and child relations. `Globals` must be written again.
+    pub fn upload_relations(&mut self, ctx: &Arc<Context>, h: &Hierarchy) -> Result<u64> {
         let sc = &mut self.scene;
-        sc.lights = Buffer::upload(ctx, "lights", &scene.lights[..])?;
-        let mut bytes = sc.lights.size;
-        if moved {
-            let mut objects = h.object_infos(scene);
-            for (info, &root) in objects.iter_mut().zip(cw_roots) {
-                info.cw_root = root;
-            }
-            sc.objects = Buffer::upload(ctx, "objects", &objects[..])?;
-            sc.clips = Buffer::upload(ctx, "support clips", &h.clips[..])?;
-            sc.parent_offset = Buffer::upload(ctx, "parent offsets", &h.parent_offset[..])?;
-            sc.parents = Buffer::upload(ctx, "parents", &h.parents[..])?;
-            sc.child_offset = Buffer::upload(ctx, "child offsets", &h.child_offset[..])?;
-            sc.children = Buffer::upload(ctx, "children", &h.children[..])?;
-            bytes += [
-                &sc.objects,
-                &sc.clips,
-                &sc.parent_offset,
-                &sc.parents,
-                &sc.child_offset,
-                &sc.children,
-            ]
+        sc.parent_offset = Buffer::upload(ctx, "parent offsets", &h.parent_offset[..])?;
+        sc.parents = Buffer::upload(ctx, "parents", &h.parents[..])?;
+        sc.child_offset = Buffer::upload(ctx, "child offsets", &h.child_offset[..])?;
+        sc.children = Buffer::upload(ctx, "children", &h.children[..])?;
+        Ok([&sc.parent_offset, &sc.parents, &sc.child_offset, &sc.children]
             .iter()
             .map(|b| b.size)
-            .sum::<u64>();
-        }
-        let g = globals(&self.scene, &self.state, &self.batch, scene, h, p);
-        self.globals = Buffer::upload(ctx, "globals", bytemuck::bytes_of(&g))?;
-        Ok(bytes + std::mem::size_of::<Globals>() as u64)
+            .sum())
     }
 }
 

@@ -27,7 +27,7 @@ use crate::scene::{reach, Scene};
 use poisson::Candidate;
 use weight::{clip_ok, node_weight};
 
-/// Support clipping: from each node, 8 rays in its tangent plane (at k·45°), lifted 2 %
+/// Support clipping (`node_clip`): from each node, 8 rays in its tangent plane (at k·45°), lifted 2 %
 /// of the support off the surface, look for surfaces standing across the support
 /// (`|n · n_hit| < 0.5`: a wall on the node's floor, not the node's own curved surface).
 /// The rays reach 1.1 h, so that the ray nearest the perpendicular (within 22.5°) finds
@@ -35,15 +35,77 @@ use weight::{clip_ok, node_weight};
 /// support in the directions whose rays met them: points behind them get no weight, so
 /// light does not leak under walls into the room behind, while a finite obstacle (a box)
 /// only cuts the directions it covers (`weight::clip_ok`).
-fn support_clips(scene: &Scene, nodes: &[Node], objects: &[ObjectLevels], kappa: f32) -> Vec<weight::Clip> {
-    nodes
-        .par_iter()
-        .map(|nd| {
-            let h_obj = kappa * objects[nd.object as usize].radius[nd.level as usize];
-            let mut planes = walls_across_support(scene, nd, h_obj);
-            widen_to_neighbour_sectors(&mut planes);
-            encode_clip(planes)
-        })
+pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
+    let nd = &h.nodes[i];
+    let h_obj = h.support(nd.object as usize, nd.level as usize);
+    let mut planes = walls_across_support(scene, nd, h_obj);
+    widen_to_neighbour_sectors(&mut planes);
+    encode_clip(planes)
+}
+
+/// The nodes whose support clip an arrangement computes: all of them, or after objects
+/// moved those of the moved objects (`moved`, per object) and those whose clip rays (1.1
+/// of the support, with a margin of 1.2 and `eps` world units) can reach one of `boxes`
+/// (each moved object's world bounds before and after). GLSL twin: `glsl/clips.comp`.
+#[derive(Clone, Debug)]
+pub enum ClipSelection {
+    All,
+    Near {
+        moved: Vec<bool>,
+        boxes: Vec<(Vec3, Vec3)>,
+        eps: f32,
+    },
+}
+
+impl ClipSelection {
+    /// The nodes whose clips can change when the objects `moved` go from where `before`
+    /// had them to where `scene` has them: all of them if the scene's bounds, and so its
+    /// ray offsets, changed.
+    pub fn after(scene: &Scene, before: &Arrangement, moved: &[usize]) -> ClipSelection {
+        if scene.scale != before.scale || scene.bounds != before.bounds {
+            return ClipSelection::All;
+        }
+        ClipSelection::Near {
+            moved: (0..scene.objects.len()).map(|o| moved.contains(&o)).collect(),
+            boxes: moved
+                .iter()
+                .flat_map(|&o| {
+                    [
+                        crate::scene::object_box(&before.objects[o], &scene.tris),
+                        crate::scene::object_box(&scene.objects[o], &scene.tris),
+                    ]
+                })
+                .collect(),
+            eps: scene.scale * 1e-4,
+        }
+    }
+
+    /// Whether node `i` of `h` is selected, in `scene`'s arrangement.
+    pub fn contains(&self, scene: &Scene, h: &Hierarchy, i: usize) -> bool {
+        let Self::Near { moved, boxes, eps } = self else {
+            return true;
+        };
+        let nd = &h.nodes[i];
+        let o = nd.object as usize;
+        if moved[o] {
+            return true;
+        }
+        let obj = &scene.objects[o];
+        let x = xform_point(&obj.to_world, Vec3::from(nd.pos));
+        let r = 1.2 * h.support(o, nd.level as usize) * obj.transform.scale + eps;
+        boxes
+            .iter()
+            .any(|(lo, hi)| (x.clamp(*lo, *hi) - x).length_squared() <= r * r)
+    }
+}
+
+/// Computes the support clips of the nodes a selection holds, on the CPU: `(node, clip)`
+/// in node order.
+pub fn cpu_clips(scene: &Scene, h: &Hierarchy, sel: &ClipSelection) -> Vec<(usize, weight::Clip)> {
+    (0..h.nodes.len())
+        .into_par_iter()
+        .filter(|&i| sel.contains(scene, h, i))
+        .map(|i| (i, node_clip(scene, h, i)))
         .collect()
 }
 
@@ -502,6 +564,14 @@ impl Hierarchy {
     /// the levels' density, candidate pools, Poisson-disk levels, the level-major node
     /// array with its kd-trees, support clips, and the parent relations.
     pub fn build(scene: &Scene, p: &SolverParams, progress: &Progress) -> Result<Hierarchy> {
+        let mut h = Hierarchy::build_unarranged(scene, p, progress)?;
+        h.arrange(scene, p, progress);
+        Ok(h)
+    }
+
+    /// [`Hierarchy::build`] up to what depends on the arrangement: no clips and no
+    /// relations yet ([`Hierarchy::arrange`] adds them, or the device: `crate::gpu::arrange`).
+    pub fn build_unarranged(scene: &Scene, p: &SolverParams, progress: &Progress) -> Result<Hierarchy> {
         let mut stats = HierarchyStats::default();
         let t = Instant::now();
         progress.stage("reachable surfaces");
@@ -557,7 +627,7 @@ impl Hierarchy {
             sides,
             object_reach,
         };
-        h.arrange(scene, p, progress);
+        h.clips = vec![weight::NO_CLIP; h.nodes.len()];
         Ok(h)
     }
 
@@ -565,15 +635,17 @@ impl Hierarchy {
     /// support, of any object) and, as the pull-down weights respect them, the parent
     /// relations. [`Hierarchy::build`] ends with it; after objects move, it brings a
     /// hierarchy to exactly what a build for the new arrangement gives (with `reach =
-    /// "object"`, where nothing else depends on the arrangement).
+    /// "object"`, where nothing else depends on the arrangement). On the GPU backend the
+    /// device does this (`crate::gpu::arrange`).
     pub fn arrange(&mut self, scene: &Scene, p: &SolverParams, progress: &Progress) {
         let t = Instant::now();
         progress.stage("support clipping");
-        self.clips = if p.support_clip {
-            support_clips(scene, &self.nodes, &self.objects, p.kappa)
-        } else {
-            vec![weight::NO_CLIP; self.nodes.len()]
-        };
+        self.clips = vec![weight::NO_CLIP; self.nodes.len()];
+        if p.support_clip {
+            for (i, c) in cpu_clips(scene, self, &ClipSelection::All) {
+                self.clips[i] = c;
+            }
+        }
         self.stats.seconds_clips = t.elapsed().as_secs_f64();
         self.stats.clipped_nodes = self.clips.iter().filter(|c| **c != weight::NO_CLIP).count();
         let t = Instant::now();
@@ -584,12 +656,11 @@ impl Hierarchy {
 
     /// [`Hierarchy::arrange`] after the objects `moved` were placed anew (`before`: the
     /// scene as it was arranged last), computing again only what can change: the clips of
-    /// the moved objects' nodes and of the nodes whose clip rays can reach a moved
-    /// object's old or new bounds (all of them if the scene's bounds, and so its ray
-    /// offsets, changed), and the parent lists of the children within a support of a
-    /// node whose clip changed (and of those with at most one parent: holes and orphans
-    /// are found by a wider search). The result is [`Hierarchy::arrange`]'s, exactly.
-    /// Returns the clips computed and the parent lists computed.
+    /// the nodes [`ClipSelection::after`] selects, and the parent lists of the children
+    /// within a support of a node whose clip changed (and of those with at most one
+    /// parent: holes and orphans are found by a wider search). The result is
+    /// [`Hierarchy::arrange`]'s, exactly. Returns the clips computed and the parent lists
+    /// computed.
     pub fn rearrange(
         &mut self,
         scene: &Scene,
@@ -598,58 +669,14 @@ impl Hierarchy {
         p: &SolverParams,
         progress: &Progress,
     ) -> (usize, usize) {
-        if !p.support_clip || scene.scale != before.scale || scene.bounds != before.bounds {
+        let sel = ClipSelection::after(scene, before, moved);
+        if !p.support_clip || matches!(sel, ClipSelection::All) {
             self.arrange(scene, p, progress);
             return (self.nodes.len(), self.nodes.len());
         }
         let t = Instant::now();
         progress.stage("support clipping");
-        let world_box = |objects: &[crate::scene::SceneObject], o: usize| {
-            let obj = &objects[o];
-            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-            for tri in &scene.tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
-                for v in [tri.v0, tri.v1, tri.v2] {
-                    let w = xform_point(&obj.to_world, Vec3::from(v));
-                    lo = lo.min(w);
-                    hi = hi.max(w);
-                }
-            }
-            (lo, hi)
-        };
-        let boxes: Vec<(Vec3, Vec3)> = moved
-            .iter()
-            .flat_map(|&o| [world_box(&before.objects, o), world_box(&scene.objects, o)])
-            .collect();
-        let eps = scene.scale * 1e-4;
-        let is_moved: Vec<bool> = (0..scene.objects.len()).map(|o| moved.contains(&o)).collect();
-        let redo: Vec<bool> = self
-            .nodes
-            .par_iter()
-            .map(|nd| {
-                let o = nd.object as usize;
-                if is_moved[o] {
-                    return true;
-                }
-                let obj = &scene.objects[o];
-                let x = xform_point(&obj.to_world, Vec3::from(nd.pos));
-                let r = 1.2 * self.support(o, nd.level as usize) * obj.transform.scale + eps;
-                boxes
-                    .iter()
-                    .any(|(lo, hi)| (x.clamp(*lo, *hi) - x).length_squared() <= r * r)
-            })
-            .collect();
-        let fresh: Vec<(usize, weight::Clip)> = redo
-            .par_iter()
-            .enumerate()
-            .filter(|(_, &r)| r)
-            .map(|(i, _)| {
-                let nd = &self.nodes[i];
-                let h_obj = p.kappa * self.objects[nd.object as usize].radius[nd.level as usize];
-                let mut planes = walls_across_support(scene, nd, h_obj);
-                widen_to_neighbour_sectors(&mut planes);
-                (i, encode_clip(planes))
-            })
-            .collect();
+        let fresh = cpu_clips(scene, self, &sel);
         let clips_done = fresh.len();
         let mut changed = Vec::new();
         for (i, c) in fresh {
@@ -675,7 +702,8 @@ impl Hierarchy {
                 dirty[base + i] = true;
             });
         }
-        let parents_done = dirty.iter().filter(|&&d| d).count();
+        // Level 0 has no parents: its nodes' lists are empty, not computed.
+        let parents_done = (0..n).filter(|&c| dirty[c] && self.nodes[c].level > 0).count();
         self.build_relations(Some(&dirty));
         self.stats.seconds_parents = t.elapsed().as_secs_f64();
         (clips_done, parents_done)

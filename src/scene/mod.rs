@@ -586,16 +586,26 @@ fn check_light_power(lights: &[GpuLight]) -> std::result::Result<(), String> {
 }
 
 /// World-space bounds of every object and the length of their diagonal.
+/// The world-space bounds of object `obj`'s triangles (of `tris`, the scene's) under
+/// `obj`'s transform.
+pub fn object_box(obj: &SceneObject, tris: &[Tri]) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in &tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
+        for v in [t.v0, t.v1, t.v2] {
+            let w = xform_point(&obj.to_world, Vec3::from(v));
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    (lo, hi)
+}
+
 fn world_bounds(objects: &[SceneObject], tris: &[Tri]) -> std::result::Result<(Vec3, Vec3, f32), String> {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for o in objects {
-        for t in &tris[o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize] {
-            for v in [t.v0, t.v1, t.v2] {
-                let w = xform_point(&o.to_world, Vec3::from(v));
-                lo = lo.min(w);
-                hi = hi.max(w);
-            }
-        }
+        let (a, b) = object_box(o, tris);
+        lo = lo.min(a);
+        hi = hi.max(b);
     }
     let scale = (hi - lo).length();
     if !(scale.is_finite() && scale > 0.0) {

@@ -6,6 +6,7 @@
 
 pub mod accumulate;
 pub mod batches;
+pub mod clips;
 pub mod compact;
 pub mod delta;
 pub mod direct;
@@ -16,6 +17,8 @@ pub mod oracle;
 pub mod pulldown;
 pub mod reconstruct;
 pub mod reduce;
+pub mod relations;
+pub mod scan;
 pub mod trace;
 
 use std::sync::Arc;
@@ -183,6 +186,7 @@ impl Kernels {
 pub const NAMES: &[&str] = &[
     accumulate::Accumulate::NAME,
     batches::Batches::NAME,
+    clips::Clips::NAME,
     compact::Compact::NAME,
     delta::Delta::NAME,
     direct::Direct::NAME,
@@ -192,6 +196,8 @@ pub const NAMES: &[&str] = &[
     pulldown::Pulldown::NAME,
     reconstruct::Reconstruct::NAME,
     reduce::Reduce::NAME,
+    relations::Relations::NAME,
+    scan::Scan::NAME,
     trace::Trace::NAME,
 ];
 
