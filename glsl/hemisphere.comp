@@ -1,7 +1,8 @@
 // Kernel `hemisphere`: the gathering rays of one batch of integrals (paper §4.2): Halton
 // points mapped to the cosine-weighted hemisphere of the node, rotated about its normal
 // by the integral's random angle. Integral i of the batch is node `integral_node(i)`
-// (gather.glsl).
+// (gather.glsl). With links (gather.glsl `links_on`), a node whose links are recorded
+// casts nothing, and a node's first traced gather gets a slot for them.
 // CPU twin: transport::cpu::gather_integral.
 #version 460
 #include "geometry.glsl"
@@ -20,6 +21,29 @@ void main() {
     uint i = id / n_rays;
     uint r = id - i * n_rays;
     uint j = integral_node(g, i);
+    if (links_on()) {
+        // The integral's first thread counts it and, at a node's first traced gather,
+        // hands out a link slot; a linked integral casts no ray.
+        uint s = g.link_slot.v[j];
+        if (r == 0u) {
+            if (is_linked(s)) {
+                atomicAdd(g.link_counters.v[LINK_LINKED], 1u);
+            } else {
+                atomicAdd(g.link_counters.v[LINK_TRACED], 1u);
+                if (s == NONE) {
+                    uint slot = atomicAdd(g.link_counters.v[LINK_TAKEN], 1u);
+                    if (slot < g.link_capacity) {
+                        g.link_slot.v[j] = slot | LINK_RECORDING;
+                    } else {
+                        atomicAdd(g.link_counters.v[LINK_TRACED_FULL], 1u);
+                    }
+                }
+            }
+        }
+        if (is_linked(s)) {
+            return;
+        }
+    }
     Node nd = g.nodes.v[j];
     ObjectInfo ob = g.objects.v[nd.object];
     vec3 x = xform_point(ob.to_world, nd.pos);

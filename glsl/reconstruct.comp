@@ -2,7 +2,10 @@
 // level by the variant's reconstruction (exact Shepard, delta sum, or first kd leaf),
 // times the albedo there: one Monte Carlo sample `ρ(y) ΔE(y)` per ray. In the first
 // bounce under `exact_first_bounce` the un-shot field is E_d itself, read exactly at the
-// hit by shadow rays. CPU twin: the loop body of transport::cpu::gather_integral.
+// hit by shadow rays. With links (gather.glsl `links_on`), a linked integral's sample is
+// its link's albedo times the un-shot value of its sender node, and a node's first
+// traced gather records the links. CPU twin: the loop body of
+// transport::cpu::gather_integral and transport::links::gather.
 #version 460
 #include "surface.glsl"
 #include "hierarchy.glsl"
@@ -16,8 +19,20 @@ void main() {
     if (id >= batch_count() * g.rays_per_integral) {
         return;
     }
+    uint n_rays = g.rays_per_integral;
+    uint r = id % n_rays;
+    uint s = links_on() ? g.link_slot.v[integral_node(g, id / n_rays)] : NONE;
+    if (is_linked(s)) {
+        // The link: the same product the traced read makes.
+        uvec4 link = g.links.v[s * n_rays + r];
+        vec3 c = link.x != NONE ? uintBitsToFloat(link.yzw) * g.unshot.v[link.x].xyz : vec3(0.0);
+        g.contrib.v[id] = vec4(c, 0.0);
+        return;
+    }
     HitRecord h = g.hits.v[id];
     vec3 c = vec3(0.0);
+    uint sender = NONE;
+    vec3 a = vec3(0.0);
     if (h.object != NONE) {
         ObjectInfo ob = g.objects.v[h.object];
         Tri tri = g.tris.v[h.tri];
@@ -27,13 +42,21 @@ void main() {
         if (dot(n, d) > 0.0) {
             n = -n;
         }
+        a = albedo(g, h.tri, tri, h.b1, h.b2);
         vec3 e;
         if (pc.exact_direct == 1u) {
             e = direct_at(g, xform_point(ob.to_world, p), normalize(xform_vector(ob.to_world, n)), false);
+        } else if (VARIANT == VARIANT_APPROX) {
+            sender = approx_node(g, ob, g.sender_level, p, n);
+            e = sender != NONE ? g.unshot.v[sender].xyz : vec3(0.0);
         } else {
             e = recon_sender(g, ob, p, n, g.unshot);
         }
-        c = albedo(g, h.tri, tri, h.b1, h.b2) * e;
+        c = a * e;
     }
     g.contrib.v[id] = vec4(c, 0.0);
+    if (s != NONE) {
+        // The node's first traced gather: keep what later gathers read.
+        g.links.v[(s & ~LINK_RECORDING) * n_rays + r] = uvec4(sender, floatBitsToUint(a));
+    }
 }

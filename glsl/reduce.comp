@@ -55,5 +55,12 @@ void main() {
         g.gathered_mean.v[j] = vec4(m + shift, 0.0);
         g.gathered_err.v[j] = vec4(sqrt(var / nf), 0.0);
         g.active_flag.v[j] = 1u;
+        if (links_on()) {
+            // Links recorded: the node's later gathers read them.
+            uint s = g.link_slot.v[j];
+            if (s != NONE && (s & LINK_RECORDING) != 0u) {
+                g.link_slot.v[j] = s & ~LINK_RECORDING;
+            }
+        }
     }
 }

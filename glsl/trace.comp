@@ -1,5 +1,6 @@
 // Kernel `trace`: closest hit of each gathering ray over all objects (rays go into each
-// object's space; one BVH2 per object). CPU twin: Scene::intersect.
+// object's space; one BVH2 per object), but for integrals read from links.
+// CPU twin: Scene::intersect.
 #version 460
 #include "geometry.glsl"
 #include "gather.glsl"
@@ -10,6 +11,9 @@ void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
     if (id >= batch_count() * g.rays_per_integral) {
+        return;
+    }
+    if (links_on() && is_linked(g.link_slot.v[integral_node(g, id / g.rays_per_integral)])) {
         return;
     }
     Ray ray = g.rays.v[id];

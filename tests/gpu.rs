@@ -463,3 +463,57 @@ fn scan_matches_a_prefix_sum() {
     }
     assert_eq!(ctx.validation_errors(), 0);
 }
+
+/// Links on the device (`ALGORITHM.md` §5.6): a node's first traced gather keeps each
+/// ray's sender node and albedo, and its later gathers read them instead of tracing. The
+/// solution must be the traced one bit for bit, with room for every node, with room for a
+/// few (the rest traced every bounce) and with none; the counts show the links used and
+/// the full case out of room; a warm solve on the same backend records its own.
+#[test]
+fn gpu_links_give_the_traced_answer() {
+    let ctx = context();
+    let run = |link_memory: u32, warmups: u32| {
+        let (s, mut p) = cornell(4, 64, Variant::Approx);
+        p.link_memory = link_memory;
+        p.stop_threshold = 1e-3;
+        let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
+        let mut g = GpuBackend::new(ctx.clone(), &s, &h, &p).unwrap();
+        for _ in 0..warmups {
+            meshrad::transport::solve(&p, &mut g, &Progress::hidden()).unwrap();
+        }
+        let sol = meshrad::transport::solve(&p, &mut g, &Progress::hidden()).unwrap();
+        (sol.values, sol.stats)
+    };
+    let (traced, st) = run(0, 0);
+    assert!(st.links.is_none(), "link_memory = 0 keeps no links");
+    assert!(
+        st.bounces.len() >= 4,
+        "the test needs several bounces: {}",
+        st.bounces.len()
+    );
+    // 64 rays × 16 bytes = 1 KiB a node: 1 MiB holds 1024 nodes, fewer than the nodes
+    // levels 0–2 gather.
+    for (mib, full, warmups) in [(2048, false, 0), (1, true, 0), (2048, false, 1)] {
+        let (linked, st) = run(mib, warmups);
+        let l = st.links.expect("links kept");
+        let same = |a: &[Vec4], b: &[Vec4]| bytemuck::cast_slice::<Vec4, u8>(a) == bytemuck::cast_slice::<Vec4, u8>(b);
+        assert!(
+            same(&linked.direct, &traced.direct) && same(&linked.indirect, &traced.indirect),
+            "link_memory {mib} (warm-ups {warmups}): the solution differs from the traced one"
+        );
+        assert!(
+            l.integrals_linked > if full { 0 } else { l.integrals_traced },
+            "link_memory {mib}: links served {} integrals, traced {}",
+            l.integrals_linked,
+            l.integrals_traced
+        );
+        assert_eq!(l.integrals_traced_full > 0, full, "link_memory {mib}: {l:?}");
+        assert!(l.bytes <= l.capacity_bytes && l.bytes == l.nodes * 64 * 16, "{l:?}");
+        assert_eq!(
+            st.rays_traced,
+            st.rays_gathered - l.integrals_linked * 64,
+            "rays traced: the linked integrals cast none"
+        );
+    }
+    assert_eq!(ctx.validation_errors(), 0);
+}

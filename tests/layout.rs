@@ -193,6 +193,9 @@ fn gpu_struct_offsets_match_the_host_structs() {
         contrib,
         energy,
         dispatch_args,
+        link_slot,
+        links,
+        link_counters,
         num_objects,
         num_lights,
         rays_per_integral,
@@ -206,7 +209,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
         noise_z,
         levels,
         sender_level,
-        pad0
+        link_capacity
     );
     // Each kernel's push constants (one block per kernel; the four kernels of a gathering
     // batch share GatherPush).

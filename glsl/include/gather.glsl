@@ -31,4 +31,15 @@ uint integral_node(GlobalsRef g, uint i) {
     return pc.from_list == 1u ? g.active_list.v[pc.batch_first + i] : pc.first + pc.batch_first + i;
 }
 
+// Whether this batch's integrals keep and read links (ALGORITHM.md §5.6): the
+// approximate variant's sender read (not the exact direct light), with room for links.
+bool links_on() {
+    return VARIANT == VARIANT_APPROX && pc.exact_direct == 0u && pc.g.link_capacity > 0u;
+}
+
+// Whether a node's gathers read its links (its slot, recorded by an earlier gather).
+bool is_linked(uint slot) {
+    return slot != NONE && (slot & LINK_RECORDING) == 0u;
+}
+
 #endif

@@ -166,18 +166,23 @@ vec3 recon_delta(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref va
     return acc;
 }
 
-// First-leaf approximation, falling back to coarser levels (0 if none).
-vec3 recon_approx(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
-    vec3 v = vec3(0.0);
-    bool done = false;
-    for (int k = int(l); k >= 0 && !done; k--) {
+// The node the first-leaf approximation reads (global index), falling back to coarser
+// levels; NONE if none (reconstruct::approx_node).
+uint approx_node(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n) {
+    uint node = NONE;
+    for (int k = int(l); k >= 0 && node == NONE; k--) {
         uint i = first_leaf(g, ob, uint(k), p, n, g.approx_cos);
         if (i != NONE) {
-            v = values.v[ob.level_start[k] + i].xyz;
-            done = true;
+            node = ob.level_start[k] + i;
         }
     }
-    return v;
+    return node;
+}
+
+// First-leaf approximation, falling back to coarser levels (0 if none).
+vec3 recon_approx(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+    uint node = approx_node(g, ob, l, p, n);
+    return node != NONE ? values.v[node].xyz : vec3(0.0);
 }
 
 // What the transport reads at a hit point (the variant is a specialization constant).

@@ -99,6 +99,9 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     Vec4Ref contrib;
     FloatRef energy;
     UintRef dispatch_args;
+    UintRef link_slot;
+    Uvec4Ref links;
+    UintRef link_counters;
     uint num_objects;
     uint num_lights;
     uint rays_per_integral;
@@ -112,7 +115,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     float noise_z;
     uint levels;
     uint sender_level;
-    uint pad0;
+    uint link_capacity;
 };
 
 // Push constants are declared by each kernel (its own block, `<Name>Push`, mirrored by

@@ -10,7 +10,7 @@ use glam::Vec4;
 
 use super::arrange::{ArrangeKernels, Arranged};
 use super::context::Context;
-use super::globals::RAY_BYTES;
+use super::globals::{LINK_RECORD_BYTES, RAY_BYTES};
 use super::kernels::{Kernels, Recorder};
 use super::pipeline::Specialization;
 use super::profiler::Profiler;
@@ -18,13 +18,15 @@ use super::resources::{Cwbvh, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES}
 use super::schedule::{Active, Schedule};
 use crate::constants::{
     BVH_BVH2, BVH_CWBVH, COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_REFINED, ENERGY_DIRECT, ENERGY_UNSHOT,
-    LIGHT_COUNTERS, VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
+    LIGHT_COUNTERS, LINK_COUNTERS, LINK_LINKED, LINK_TAKEN, LINK_TRACED, LINK_TRACED_FULL, VARIANT_APPROX,
+    VARIANT_MODIFIED, VARIANT_ORIGINAL,
 };
 use crate::error::{Error, Result};
 use crate::hierarchy::{Arrangement, ClipSelection, Hierarchy};
 use crate::params::{BvhKind, SolverParams, Variant};
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::transport::links::LinkStats;
 use crate::transport::{Backend, Energy, FusedBounce, NodeValues, Refined};
 
 /// Rays (origin, direction), hit records (object, triangle, b1 bits, b2 bits) and samples.
@@ -443,6 +445,24 @@ impl Backend for GpuBackend<'_> {
             )));
         }
         Ok(NodeValues { direct, indirect })
+    }
+
+    fn link_stats(&self) -> Option<LinkStats> {
+        let st = &self.res.state;
+        if st.link_capacity == 0 {
+            return None;
+        }
+        let c: Vec<u32> = st.link_counters.download(0, LINK_COUNTERS as usize).ok()?;
+        let nodes = (c[LINK_TAKEN as usize].min(st.link_capacity)) as u64;
+        let per_node = self.p.rays as u64 * LINK_RECORD_BYTES;
+        Some(LinkStats {
+            capacity_bytes: st.link_capacity as u64 * per_node,
+            bytes: nodes * per_node,
+            nodes,
+            integrals_linked: c[LINK_LINKED as usize] as u64,
+            integrals_traced: c[LINK_TRACED as usize] as u64,
+            integrals_traced_full: c[LINK_TRACED_FULL as usize] as u64,
+        })
     }
 
     fn kernel_times(&mut self) -> Vec<(String, f64)> {

@@ -43,6 +43,12 @@ pub struct Globals {
     pub contrib: u64,
     pub energy: u64,
     pub dispatch_args: u64,
+    /// Per node: its link slot (`NONE`, or the slot, with `LINK_RECORDING` while recording).
+    pub link_slot: u64,
+    /// The links: per slot, `rays` records (sender node or `NONE`, albedo bits).
+    pub links: u64,
+    /// `LINK_COUNTERS` u32 slots (`crate::constants`).
+    pub link_counters: u64,
     pub num_objects: u32,
     pub num_lights: u32,
     pub rays_per_integral: u32,
@@ -56,7 +62,8 @@ pub struct Globals {
     pub noise_z: f32,
     pub levels: u32,
     pub sender_level: u32,
-    pub pad0: u32,
+    /// Link slots (nodes whose rays can keep links; 0: no links).
+    pub link_capacity: u32,
 }
 
 /// A ray as the kernels store it (32 bytes).
@@ -65,9 +72,11 @@ pub const RAY_BYTES: u64 = 32;
 pub const HIT_BYTES: u64 = 16;
 /// A Monte Carlo sample (vec4, 16 bytes).
 pub const CONTRIB_BYTES: u64 = 16;
+/// A link on the device (sender, albedo: 16 bytes).
+pub const LINK_RECORD_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 35 * 8 + 14 * 4);
-    assert!(std::mem::offset_of!(Globals, num_objects) == 280);
-    assert!(std::mem::offset_of!(Globals, sender_level) == 328);
+    assert!(std::mem::size_of::<Globals>() == 38 * 8 + 14 * 4);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 304);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 352);
 };

@@ -8,16 +8,16 @@ use gpu_allocator::MemoryLocation;
 
 use super::buffer::Buffer;
 use super::context::Context;
-use super::globals::{Globals, CONTRIB_BYTES, HIT_BYTES, RAY_BYTES};
+use super::globals::{Globals, CONTRIB_BYTES, HIT_BYTES, LINK_RECORD_BYTES, RAY_BYTES};
 use crate::constants::{
-    COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_DIRECT, ENERGY_SLOTS, LIGHT_COUNTERS, MAX_LEVELS,
+    COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_DIRECT, ENERGY_SLOTS, LIGHT_COUNTERS, LINK_COUNTERS, MAX_LEVELS,
 };
 use crate::error::Result;
 use crate::geom::bvh;
 use crate::geom::sampling::halton_table;
 use crate::hierarchy::Hierarchy;
 use crate::layout::CwNode;
-use crate::params::{BvhKind, SolverParams};
+use crate::params::{BvhKind, SolverParams, Variant};
 use crate::scene::Scene;
 
 /// The scene and the hierarchy, uploaded once, read-only on the device.
@@ -149,6 +149,31 @@ pub struct NodeState {
     pub counters: Buffer,
     /// f32 slots `ENERGY_*` (`crate::constants`).
     pub energy: Buffer,
+    /// u32 per node: its link slot (`NONE`, or the slot, `LINK_RECORDING` while its
+    /// first traced gather records).
+    pub link_slot: Buffer,
+    /// The links: `link_capacity` slots of `rays` records (16 bytes each).
+    pub links: Buffer,
+    /// u32 slots `LINK_*` (`crate::constants`).
+    pub link_counters: Buffer,
+    /// Nodes whose rays can keep links (0: none; not the approximate variant, or
+    /// `link_memory = 0`).
+    pub link_capacity: u32,
+}
+
+/// Link slots for a solve on `ctx` with `nodes` nodes: `link_memory` MiB of records of
+/// `rays` rays, at most an eighth of device memory and the largest allocation, and no
+/// more than the nodes; 0 unless the approximate variant (the only one whose sender
+/// read depends on one node: `transport::links`).
+pub fn link_capacity(ctx: &Context, p: &SolverParams, nodes: usize) -> u32 {
+    if p.variant != Variant::Approx || p.link_memory == 0 {
+        return 0;
+    }
+    let mut budget = ((p.link_memory as u64) << 20).min(ctx.info.device_local_bytes / 8);
+    if ctx.info.max_allocation_bytes > 0 {
+        budget = budget.min(ctx.info.max_allocation_bytes);
+    }
+    (budget / (p.rays as u64 * LINK_RECORD_BYTES)).min(nodes as u64) as u32
 }
 
 /// The buffers of the batches in flight; they never leave the device.
@@ -212,6 +237,13 @@ impl Resources {
             active_list: z("active", (largest_level.max(1) * 4) as u64)?,
             counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.lights.len() as u64))?,
             energy: z("energy", 4 * ENERGY_SLOTS as u64)?,
+            link_slot: device("link slots", (n * 4) as u64)?,
+            links: device(
+                "links",
+                link_capacity(ctx, p, n) as u64 * p.rays as u64 * LINK_RECORD_BYTES,
+            )?,
+            link_counters: z("link counters", 4 * LINK_COUNTERS as u64)?,
+            link_capacity: link_capacity(ctx, p, n),
         };
         let rays_in_flight = batch as u64 * p.rays as u64;
         let batches = largest_level.div_ceil(batch as usize) as u64 + 1;
@@ -338,6 +370,9 @@ fn globals(
         contrib: b.samples.address,
         energy: st.energy.address,
         dispatch_args: b.dispatch_args.address,
+        link_slot: st.link_slot.address,
+        links: st.links.address,
+        link_counters: st.link_counters.address,
         num_objects: scene.objects.len() as u32,
         num_lights: scene.lights.len() as u32,
         rays_per_integral: p.rays,
@@ -351,6 +386,6 @@ fn globals(
         noise_z: p.noise_z,
         levels: h.levels,
         sender_level: p.sender_level,
-        pad0: 0,
+        link_capacity: st.link_capacity,
     }
 }

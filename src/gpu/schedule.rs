@@ -51,8 +51,13 @@ impl Schedule<'_> {
         self.h.level_range(l as usize)
     }
 
-    /// `E_d` at every node, then the mean direct irradiance (the oracle's scale).
+    /// `E_d` at every node, then the mean direct irradiance (the oracle's scale). A solve
+    /// starts here: its links start empty.
     pub fn direct(&self, rec: &mut Recorder) {
+        let st = &self.res.state;
+        rec.fill(&st.link_slot, 0, st.link_slot.size, NONE);
+        rec.fill(&st.link_counters, 0, st.link_counters.size, 0);
+        rec.barrier();
         self.k.direct.record(rec, 0..self.h.nodes.len());
         rec.barrier();
         self.k.energy.record(rec, self.level(0), true);
