@@ -22,6 +22,7 @@ use crate::hierarchy::{Arrangement, Hierarchy};
 use crate::params::{Reach, SolverParams};
 use crate::progress::Progress;
 use crate::scene::Scene;
+use crate::transport::cpu::CpuBackend;
 use crate::transport::Solution;
 
 /// The light keys an edit may set (absolute values, as a `[[light]]` table holds them).
@@ -389,6 +390,8 @@ pub struct Editor {
     ctx: Option<Arc<Context>>,
     /// What stays on the device between solves (GPU backend).
     gpu: Option<GpuResident>,
+    /// The last CPU solve's links, for a frame that changes only lights.
+    cpu_links: Option<crate::transport::links::Links>,
     pending: Changed,
     /// Where the objects were when the hierarchy was last arranged.
     arranged: Arrangement,
@@ -413,6 +416,7 @@ impl Editor {
             hierarchy,
             ctx,
             gpu,
+            cpu_links: None,
             pending: Changed::default(),
             seconds_build: t.elapsed().as_secs_f64(),
         })
@@ -477,6 +481,9 @@ impl Editor {
         }
         self.arranged = Arrangement::of(&self.scene);
         let update = t.elapsed().as_secs_f64();
+        // Nothing moved: every gathering ray hits what it hit and reads the node it read in
+        // the last solve, so that solve's links serve this one (relighting).
+        let keep_links = changed.objects.is_empty() && !changed.rebuild;
         if let (Some(ctx), None) = (&self.ctx, &self.gpu) {
             // A failed solve left nothing on the device: upload and arrange again.
             let mut r = GpuResident::new(ctx, &self.scene, &self.hierarchy, &self.params)?;
@@ -488,12 +495,26 @@ impl Editor {
                 // Uploaded once; after an edit only the lights, transforms, the computed
                 // clips' selection and the relations cross the bus (`GpuResident::arrange`).
                 let mut b = GpuBackend::resume(ctx, r, &self.scene, &self.hierarchy, &self.params)?;
+                if keep_links {
+                    b.keep_links();
+                }
                 let s = crate::transport::solve(&self.params, &mut b, progress)?;
                 let report = b.report.clone();
                 self.gpu = Some(b.suspend());
                 (s, Some(report))
             }
-            _ => crate::run::transport_on(&self.scene, &self.params, &self.hierarchy, None, 0, progress)?,
+            _ => {
+                let mut b = CpuBackend::new(&self.scene, &self.hierarchy, &self.params, progress);
+                match self.cpu_links.take() {
+                    Some(l) if keep_links => {
+                        b.keep_links(l);
+                    }
+                    _ => {}
+                }
+                let s = crate::transport::solve(&self.params, &mut b, progress)?;
+                self.cpu_links = b.take_links();
+                (s, None)
+            }
         };
         let seconds = FrameSeconds {
             update,

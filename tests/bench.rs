@@ -227,7 +227,8 @@ fn edit_smoke() {
     );
     let text = String::from_utf8_lossy(&o.stdout);
     for needle in [
-        "| cornell | cpu |",
+        "| cornell | cpu | objects |",
+        "| cornell | cpu | lights |",
         "| cornell | gpu (",
         "update / frame",
         "frame / fresh rest",
@@ -235,7 +236,8 @@ fn edit_smoke() {
         assert!(text.contains(needle), "`{needle}` not in\n{text}");
     }
     let csv = std::fs::read_to_string(dir.path().join("e/edit.csv")).unwrap();
-    // Header and 3 frames per backend; frames 1 and 2 recomputed some clips, not all.
+    // Header and 3 frames per backend; frame 1 (the block moved) recomputed some clips,
+    // not all, frame 2 (the light moved) none.
     let rows: Vec<&str> = csv.lines().collect();
     assert_eq!(rows.len(), 1 + 2 * 3, "{csv}");
     for r in &rows[1..] {
@@ -244,5 +246,11 @@ fn edit_smoke() {
         let (nodes, clips): (usize, usize) = (f[5].parse().unwrap(), f[7].parse().unwrap());
         assert_eq!(f[4], "false", "{r}");
         assert!(clips < nodes, "{r}");
+        if r.contains(",objects,") {
+            assert!(clips > 0, "{r}");
+        }
+        if r.contains(",lights,") {
+            assert_eq!(clips, 0, "{r}");
+        }
     }
 }

@@ -131,6 +131,16 @@ fn frames_equal_fresh_solves(ctx: Option<Arc<Context>>) {
             ),
             2 => {
                 assert_eq!((f.changed.clips_computed, f.changed.parents_computed), (0, 0));
+                // A light move keeps the last frame's links: fewer rays traced than the
+                // fresh solve of the same frame, for the same answer (asserted above).
+                let (fl, ffl) = (&f.solution.stats, &fresh.solution.stats);
+                assert!(
+                    fl.rays_traced < ffl.rays_traced
+                        && fl.links.as_ref().unwrap().integrals_linked > ffl.links.as_ref().unwrap().integrals_linked,
+                    "frame 2 kept no links: rays traced {} against the fresh solve's {}",
+                    fl.rays_traced,
+                    ffl.rays_traced
+                );
                 if let Some(g) = &f.gpu {
                     assert!(g.bytes_uploaded < 1024, "frame 2 uploaded {} bytes", g.bytes_uploaded);
                 }

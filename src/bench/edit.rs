@@ -80,8 +80,10 @@ fn light(keys: &[(&str, [f32; 3])]) -> toml::Table {
         .collect()
 }
 
-/// The frames of a scene: frame 0 is the scene as loaded; then `n − 1` edits. Odd
-/// frames move the object, even frames move the object and the light.
+/// The frames of a scene: frame 0 is the scene as loaded; then `n − 1` edits. In the
+/// Cornell box and Cornell + Buddha, odd frames move the object, even frames only the
+/// light (a relighting frame: the last frame's links serve it); over Sponza every frame
+/// swings the sun.
 pub fn frames(name: &str, scene: &Scene, n: usize) -> Result<Vec<Edit>> {
     let find = |o: &str| {
         scene.object_index(o).ok_or_else(|| Error::Param {
@@ -101,8 +103,9 @@ pub fn frames(name: &str, scene: &Scene, n: usize) -> Result<Vec<Edit>> {
                     ("buddha", Vec3::new(-12.0 * kf, 0.0, -10.0 * kf))
                 };
                 let o = find(obj)?;
-                e.objects.push((obj.into(), turn(scene, o, 9.0 * kf, shift)));
-                if k % 2 == 0 {
+                if k % 2 == 1 {
+                    e.objects.push((obj.into(), turn(scene, o, 9.0 * kf, shift)));
+                } else {
                     let a = 0.7 * kf;
                     let p = [278.0 + 90.0 * a.cos(), 548.0, 279.6 + 90.0 * a.sin()];
                     e.lights
@@ -158,6 +161,8 @@ pub struct FrameRow {
     pub scene: String,
     pub backend: String,
     pub frame: usize,
+    /// What the frame changed: "objects", "lights" or "objects+lights".
+    pub kind: String,
     pub update: f64,
     pub direct: f64,
     pub bounces: f64,
@@ -237,6 +242,13 @@ pub fn run_scene(
             scene: s.name.into(),
             backend: backend.clone(),
             frame: k,
+            kind: match (f.changed.objects.is_empty(), f.changed.lights.is_empty()) {
+                (false, true) => "objects",
+                (true, false) => "lights",
+                (false, false) => "objects+lights",
+                (true, true) => "nothing",
+            }
+            .into(),
             update: f.seconds.update,
             direct: f.seconds.direct,
             bounces: f.seconds.bounces,
@@ -265,26 +277,26 @@ fn quantile(v: &[f64], q: f64) -> f64 {
     s[((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1]
 }
 
-/// Per scene and backend, over the re-solve frames (1…): median and 95th percentile of
-/// each part, the frame against the fresh solve less its load and build, and the update's
-/// share of the frame.
+/// Per scene, backend and kind of frame, over the re-solve frames (1…): median and 95th
+/// percentile of each part, the frame against the fresh solve less its load and build, and
+/// the update's share of the frame.
 pub fn markdown(rows: &[FrameRow]) -> String {
     let mut s = String::from(
-        "| scene | backend | nodes | frames | update | direct | bounces | outputs | frame total | fresh: load | \
+        "| scene | backend | frames change | nodes | frames | update | direct | bounces | outputs | frame total | fresh: load | \
          fresh: build | fresh: rest | frame / fresh rest | update / frame |\n\
-         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    let mut keys: Vec<(String, String)> = Vec::new();
-    for r in rows {
-        let k = (r.scene.clone(), r.backend.clone());
+    let mut keys: Vec<(String, String, String)> = Vec::new();
+    for r in rows.iter().filter(|r| r.frame > 0) {
+        let k = (r.scene.clone(), r.backend.clone(), r.kind.clone());
         if !keys.contains(&k) {
             keys.push(k);
         }
     }
-    for (sc, b) in keys {
+    for (sc, b, kind) in keys {
         let re: Vec<&FrameRow> = rows
             .iter()
-            .filter(|r| r.scene == sc && r.backend == b && r.frame > 0)
+            .filter(|r| r.scene == sc && r.backend == b && r.kind == kind && r.frame > 0)
             .collect();
         let col = |f: fn(&FrameRow) -> f64| {
             let v: Vec<f64> = re.iter().map(|r| f(r)).collect();
@@ -293,7 +305,7 @@ pub fn markdown(rows: &[FrameRow]) -> String {
         let ratio: Vec<f64> = re.iter().map(|r| r.total / r.fresh_rest).collect();
         let share: Vec<f64> = re.iter().map(|r| r.update / r.total).collect();
         s += &format!(
-            "| {sc} | {b} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} / {:.3} | {:.1} % / {:.1} % |\n",
+            "| {sc} | {b} | {kind} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.3} / {:.3} | {:.1} % / {:.1} % |\n",
             re.first().map_or(0, |r| r.nodes),
             re.len(),
             col(|r| r.update),
@@ -316,15 +328,16 @@ pub fn markdown(rows: &[FrameRow]) -> String {
 /// The CSV of every frame.
 pub fn csv(rows: &[FrameRow]) -> String {
     let mut s = String::from(
-        "scene,backend,frame,update,direct,bounces,outputs,total,clips_computed,parents_computed,nodes,rebuilt,\
+        "scene,backend,frame,kind,update,direct,bounces,outputs,total,clips_computed,parents_computed,nodes,rebuilt,\
          fresh_load,fresh_build,fresh_rest,fresh_total\n",
     );
     for r in rows {
         s += &format!(
-            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},\"{}\",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             r.scene,
             r.backend.replace('"', "'"),
             r.frame,
+            r.kind,
             r.update,
             r.direct,
             r.bounces,

@@ -87,6 +87,12 @@ pub struct GpuBackend<'a> {
     lights: usize,
     /// Each object's CWBVH root (its `ObjectInfo::cw_root`).
     cw_roots: Vec<u32>,
+    /// The next solve reads the last solve's links ([`GpuBackend::keep_links`]).
+    keep_links: bool,
+    /// The link counters when the last solve ended (a kept solve counts from there).
+    link_base: Option<[u32; LINK_COUNTERS as usize]>,
+    /// A solve ran to its end (its links are whole).
+    solved: bool,
     pub report: GpuReport,
 }
 
@@ -101,6 +107,8 @@ pub struct GpuResident {
     res: Resources,
     batch: u32,
     cw_roots: Vec<u32>,
+    /// The link counters when the last solve ended (`None` before the first solve).
+    link_base: Option<[u32; LINK_COUNTERS as usize]>,
     report: GpuReport,
 }
 
@@ -153,6 +161,7 @@ impl GpuResident {
             res,
             batch,
             cw_roots: cw.roots,
+            link_base: None,
             report,
         })
     }
@@ -172,6 +181,8 @@ impl GpuResident {
         moved: Option<(&Arrangement, &[usize])>,
         progress: &Progress,
     ) -> Result<Arranged> {
+        // The hits and the nodes they read change: no links survive.
+        self.link_base = None;
         let mut up = 0;
         let sel = match moved {
             None => ClipSelection::All,
@@ -219,7 +230,18 @@ impl<'a> GpuBackend<'a> {
         report.arrange_bytes_read_back = 0;
         report.seconds_upload = 0.0;
         report.seconds_pipelines = 0.0;
+        let link_base = (self.solved && self.res.state.link_capacity > 0)
+            .then(|| {
+                self.res
+                    .state
+                    .link_counters
+                    .download::<u32>(0, LINK_COUNTERS as usize)
+                    .ok()
+            })
+            .flatten()
+            .and_then(|c| c.try_into().ok());
         GpuResident {
+            link_base,
             k: self.k,
             arrange: self.arrange,
             prof: self.prof,
@@ -257,8 +279,21 @@ impl<'a> GpuBackend<'a> {
             active_count: 0,
             lights: scene.lights.len(),
             cw_roots: r.cw_roots,
+            keep_links: false,
+            link_base: r.link_base,
+            solved: false,
             report: r.report,
         })
+    }
+
+    /// Keeps the links of the last solve on this resident state for the next solve: the
+    /// caller promises the same geometry, transforms, hierarchy (clips included) and
+    /// parameters (an editing session's frame that changed only lights: the hits and the
+    /// nodes they read are the same, `ALGORITHM.md` §5.6). Returns whether there are
+    /// links to keep.
+    pub fn keep_links(&mut self) -> bool {
+        self.keep_links = self.link_base.is_some();
+        self.keep_links
     }
 
     /// Records stages of the schedule into one command buffer, submits it, waits, and
@@ -272,6 +307,7 @@ impl<'a> GpuBackend<'a> {
             rays: self.p.rays,
             delta: self.p.variant.is_delta(),
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
+            reset_links: !self.keep_links,
         };
         let (ctx, prof, globals) = (&self.ctx, &mut self.prof, self.res.globals.address);
         ctx.run(|cmd| {
@@ -426,6 +462,7 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn values(&mut self) -> Result<NodeValues> {
+        self.solved = true;
         let n = self.h.nodes.len();
         let direct: Vec<Vec4> = self.res.state.direct.download(0, n)?;
         let indirect: Vec<Vec4> = self.res.state.indirect.download(0, n)?;
@@ -453,15 +490,21 @@ impl Backend for GpuBackend<'_> {
             return None;
         }
         let c: Vec<u32> = st.link_counters.download(0, LINK_COUNTERS as usize).ok()?;
+        // A solve that kept the last one's links counts its own integrals from there.
+        let base = match self.link_base {
+            Some(b) if self.keep_links => b,
+            _ => [0; LINK_COUNTERS as usize],
+        };
+        let count = |i: u32| (c[i as usize] - base[i as usize]) as u64;
         let nodes = (c[LINK_TAKEN as usize].min(st.link_capacity)) as u64;
         let per_node = self.p.rays as u64 * LINK_RECORD_BYTES;
         Some(LinkStats {
             capacity_bytes: st.link_capacity as u64 * per_node,
             bytes: nodes * per_node,
             nodes,
-            integrals_linked: c[LINK_LINKED as usize] as u64,
-            integrals_traced: c[LINK_TRACED as usize] as u64,
-            integrals_traced_full: c[LINK_TRACED_FULL as usize] as u64,
+            integrals_linked: count(LINK_LINKED),
+            integrals_traced: count(LINK_TRACED),
+            integrals_traced_full: count(LINK_TRACED_FULL),
         })
     }
 

@@ -44,6 +44,8 @@ pub struct Schedule<'a> {
     pub delta: bool,
     /// The device's largest x grid.
     pub max_groups_x: u32,
+    /// A solve drops the links of the last one (else it reads them: a relighting frame).
+    pub reset_links: bool,
 }
 
 impl Schedule<'_> {
@@ -52,12 +54,14 @@ impl Schedule<'_> {
     }
 
     /// `E_d` at every node, then the mean direct irradiance (the oracle's scale). A solve
-    /// starts here: its links start empty.
+    /// starts here: its links start empty, unless it keeps the last solve's.
     pub fn direct(&self, rec: &mut Recorder) {
-        let st = &self.res.state;
-        rec.fill(&st.link_slot, 0, st.link_slot.size, NONE);
-        rec.fill(&st.link_counters, 0, st.link_counters.size, 0);
-        rec.barrier();
+        if self.reset_links {
+            let st = &self.res.state;
+            rec.fill(&st.link_slot, 0, st.link_slot.size, NONE);
+            rec.fill(&st.link_counters, 0, st.link_counters.size, 0);
+            rec.barrier();
+        }
         self.k.direct.record(rec, 0..self.h.nodes.len());
         rec.barrier();
         self.k.energy.record(rec, self.level(0), true);

@@ -177,7 +177,17 @@ pub struct CpuBackend<'a> {
     /// Each gathering ray traced once per solve (`links`); `None` where the variant's
     /// reads depend on more than one node or `link_memory` is 0.
     links: Option<Links>,
+    /// The links were handed over from an earlier solve of the same geometry
+    /// ([`CpuBackend::keep_links`]): the next solve reads them instead of dropping them.
+    keep_links: bool,
     progress: Progress,
+}
+
+/// The bytes the links may take: `link_memory` MiB, at most what the run's memory limit
+/// leaves after the planned parts.
+fn link_capacity(scene: &Scene, p: &SolverParams) -> u64 {
+    let left = scene.limits.max_memory as f64 - scene.report.planned_bytes;
+    ((p.link_memory as u64) << 20).min(left.max(0.0) as u64)
 }
 
 impl<'a> CpuBackend<'a> {
@@ -196,13 +206,35 @@ impl<'a> CpuBackend<'a> {
             is_active: vec![false; n],
             active: Vec::new(),
             mean_direct: Vec3::ZERO,
-            links: (p.variant == Variant::Approx && p.link_memory > 0).then(|| {
-                let left = scene.limits.max_memory as f64 - scene.report.planned_bytes;
-                let cap = ((p.link_memory as u64) << 20).min(left.max(0.0) as u64);
-                Links::new(n, p.rays as usize, cap)
-            }),
+            links: (p.variant == Variant::Approx && p.link_memory > 0)
+                .then(|| Links::new(n, p.rays as usize, link_capacity(scene, p))),
+            keep_links: false,
             progress: progress.clone(),
         }
+    }
+
+    /// Hands over the links of an earlier solve of the same scene geometry, hierarchy and
+    /// rays (an editing session's frame that changed only lights: the hits and the nodes
+    /// they read are the same, `ALGORITHM.md` §5.6), for the next solve to read instead of
+    /// tracing. Returns whether they were taken (they fit this backend).
+    pub fn keep_links(&mut self, links: Links) -> bool {
+        let fits = self.links.is_some()
+            && links.fits(
+                self.h.nodes.len(),
+                self.p.rays as usize,
+                link_capacity(self.scene, &self.p),
+            );
+        if fits {
+            self.links = Some(links);
+            self.keep_links = true;
+        }
+        fits
+    }
+
+    /// The links, for a later solve of the same geometry ([`CpuBackend::keep_links`]).
+    pub fn take_links(&mut self) -> Option<Links> {
+        self.keep_links = false;
+        self.links.take()
     }
 
     /// Per-node state: (direct, unshot, next, indirect), for checks against the GPU.
@@ -275,9 +307,14 @@ impl Backend for CpuBackend<'_> {
     fn init_unshot(&mut self) -> Result<()> {
         self.indirect.fill(Vec4::ZERO);
         // Each solve records its own links: a warm solve (benchmarks) costs what a cold one
-        // does, and its statistics count its own integrals.
+        // does, and its statistics count its own integrals. Links handed over for a
+        // relighting frame are kept (their counts start again).
         if let Some(l) = self.links.as_mut() {
-            l.clear();
+            if std::mem::take(&mut self.keep_links) {
+                l.new_solve();
+            } else {
+                l.clear();
+            }
         }
         if !self.p.variant.is_delta() {
             self.unshot.copy_from_slice(&self.direct);

@@ -67,6 +67,8 @@ pub struct Links {
     rays: usize,
     per_node: Vec<Option<Box<[Link]>>>,
     max_nodes: u64,
+    /// Nodes holding links (across solves that keep them).
+    held: u64,
     pub stats: LinkStats,
 }
 
@@ -78,6 +80,7 @@ impl Links {
             rays,
             per_node: (0..nodes).map(|_| None).collect(),
             max_nodes: capacity_bytes / per,
+            held: 0,
             stats: LinkStats {
                 capacity_bytes,
                 ..Default::default()
@@ -88,10 +91,26 @@ impl Links {
     /// Drops every link and count (a new solve).
     pub fn clear(&mut self) {
         self.per_node.iter_mut().for_each(|l| *l = None);
+        self.held = 0;
+        self.new_solve();
+    }
+
+    /// Keeps the links for a solve of the same geometry, hierarchy and rays (a relighting
+    /// frame of an editing session: the hits and their sender nodes are the same), and
+    /// starts that solve's counts.
+    pub fn new_solve(&mut self) {
         self.stats = LinkStats {
             capacity_bytes: self.stats.capacity_bytes,
+            nodes: self.held,
+            bytes: self.held * self.rays as u64 * LINK_BYTES,
             ..Default::default()
         };
+    }
+
+    /// Whether these links fit a solve with `nodes` nodes and `rays` rays (and room for
+    /// `capacity_bytes`).
+    pub fn fits(&self, nodes: usize, rays: usize, capacity_bytes: u64) -> bool {
+        self.per_node.len() == nodes && self.rays == rays && self.stats.capacity_bytes == capacity_bytes
     }
 
     /// The links of node `j`, if it has them.
@@ -110,9 +129,10 @@ impl Links {
                     return false;
                 }
                 self.stats.integrals_traced += 1;
-                if self.stats.nodes < self.max_nodes {
-                    self.stats.nodes += 1;
-                    self.stats.bytes += self.rays as u64 * LINK_BYTES;
+                if self.held < self.max_nodes {
+                    self.held += 1;
+                    self.stats.nodes = self.held;
+                    self.stats.bytes = self.held * self.rays as u64 * LINK_BYTES;
                     true
                 } else {
                     self.stats.integrals_traced_full += 1;
