@@ -469,8 +469,16 @@ impl Editor {
                         &self.params,
                         Some((&self.arranged, &moved)),
                         progress,
-                    )?;
-                    (a.clips_computed, a.parents_computed)
+                    );
+                    match a {
+                        Ok(a) => (a.clips_computed, a.parents_computed),
+                        Err(e) => {
+                            // Half arranged: the next solve builds everything again.
+                            self.gpu = None;
+                            self.pending.rebuild = true;
+                            return Err(e);
+                        }
+                    }
                 }
                 _ => self
                     .hierarchy
@@ -492,8 +500,9 @@ impl Editor {
         }
         let (solution, gpu) = match (self.ctx.clone(), self.gpu.take()) {
             (Some(ctx), Some(r)) => {
-                // Uploaded once; after an edit only the lights, transforms, the computed
-                // clips' selection and the relations cross the bus (`GpuResident::arrange`).
+                // Uploaded once; after an edit only the lights go up, and after a move the
+                // transforms and the clip selection; the changed clips and the relations
+                // come back (`GpuResident::arrange`).
                 let mut b = GpuBackend::resume(ctx, r, &self.scene, &self.hierarchy, &self.params)?;
                 if keep_links {
                     b.keep_links();
