@@ -501,14 +501,7 @@ fn gpu_links_give_the_traced_answer() {
             same(&linked.direct, &traced.direct) && same(&linked.indirect, &traced.indirect),
             "link_memory {mib} (warm-ups {warmups}): the solution differs from the traced one"
         );
-        assert!(
-            l.integrals_linked > if full { 0 } else { l.integrals_traced },
-            "link_memory {mib}: links served {} integrals, traced {}",
-            l.integrals_linked,
-            l.integrals_traced
-        );
-        assert_eq!(l.integrals_traced_full > 0, full, "link_memory {mib}: {l:?}");
-        assert!(l.bytes <= l.capacity_bytes && l.bytes == l.nodes * 64 * 16, "{l:?}");
+        common::check_link_counts(&l, mib, full, 64);
         assert_eq!(
             st.rays_traced,
             st.rays_gathered - l.integrals_linked * 64,

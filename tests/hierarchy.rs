@@ -236,15 +236,7 @@ fn links_give_the_traced_answer() {
             linked == traced,
             "link_memory {mib}: indirect differs from the traced solve"
         );
-        assert!(
-            l.integrals_linked > if full { 0 } else { l.integrals_traced },
-            "link_memory {mib}: links served {} integrals, traced {}",
-            l.integrals_linked,
-            l.integrals_traced
-        );
-        assert_eq!(l.integrals_traced_full > 0, full, "link_memory {mib}: {l:?}");
-        assert!(l.bytes <= l.capacity_bytes, "{l:?}");
-        assert_eq!(l.bytes, l.nodes * 64 * meshrad::transport::links::LINK_BYTES);
+        common::check_link_counts(&l, mib, full, 64);
     }
     // A second solve on the same backend (a benchmark's warm run) records its own links
     // and counts: the same values and the same statistics as a cold one.

@@ -20,7 +20,7 @@ use super::context::Context;
 use super::kernels::clips::{Clips, ClipsPush, ALL};
 use super::kernels::relations::{self, Relations, RelationsPush};
 use super::kernels::scan::Scan;
-use super::kernels::Recorder;
+use super::kernels::submit;
 use super::pipeline::Specialization;
 use super::profiler::Profiler;
 use super::resources::Resources;
@@ -50,6 +50,15 @@ impl ArrangeKernels {
     }
 }
 
+/// The device an arrangement runs on: its context, the arrangement's pipelines, the
+/// profiler that times them, and the solve's resident buffers.
+pub struct Device<'a> {
+    pub ctx: &'a Arc<Context>,
+    pub kernels: &'a ArrangeKernels,
+    pub prof: &'a mut Profiler,
+    pub res: &'a mut Resources,
+}
+
 /// What an arrangement on the device did.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct Arranged {
@@ -63,24 +72,7 @@ pub struct Arranged {
     pub bytes_down: u64,
 }
 
-/// Records `f` into one command buffer, submits it and waits; its dispatches are timed
-/// under their kernels' names.
-fn submit(ctx: &Context, prof: &mut Profiler, globals: u64, f: impl FnOnce(&mut Recorder)) -> Result<()> {
-    ctx.run(|cmd| {
-        prof.begin_frame(cmd);
-        let mut rec = Recorder {
-            ctx,
-            prof,
-            cmd,
-            globals,
-        };
-        f(&mut rec);
-        Ok(())
-    })?;
-    prof.end_frame()
-}
-
-/// Brings `h` and its copy on the device (`res`, whose `Globals` name the objects as
+/// Brings `h` and its copy on the device (`d.res`, whose `Globals` name the objects as
 /// `scene` places them) to `scene`'s arrangement: the clips of the nodes `sel` selects,
 /// and the relations: all of them for [`ClipSelection::All`] (a hierarchy from
 /// [`Hierarchy::build_unarranged`], or a move that changed the scene's bounds), else the
@@ -88,12 +80,8 @@ fn submit(ctx: &Context, prof: &mut Profiler, globals: u64, f: impl FnOnce(&mut 
 /// The result is what [`Hierarchy::arrange`] gives, but for the float rounding of the
 /// device; on one device, a rearrangement is exactly the whole arrangement's result.
 /// Rewrites `Globals`.
-#[allow(clippy::too_many_arguments)]
 pub fn arrange(
-    ctx: &Arc<Context>,
-    k: &ArrangeKernels,
-    prof: &mut Profiler,
-    res: &mut Resources,
+    d: &mut Device,
     scene: &Scene,
     h: &mut Hierarchy,
     p: &SolverParams,
@@ -103,12 +91,12 @@ pub fn arrange(
     let n = h.nodes.len();
     let mut out = Arranged::default();
     let all = matches!(sel, ClipSelection::All) || !p.support_clip;
-    let changed = Buffer::zeroed(ctx, "changed clips", 4 * n as u64)?;
+    let changed = Buffer::zeroed(d.ctx, "changed clips", 4 * n as u64)?;
 
     let t = Instant::now();
     progress.stage("support clipping");
     if p.support_clip {
-        let c = clips(ctx, k, prof, res, scene, h, sel, &changed)?;
+        let c = clips(d, scene, h, sel, &changed)?;
         out.clips_computed = c.computed;
         out.bytes_up += c.bytes_up;
         out.bytes_down += c.bytes_down;
@@ -117,8 +105,8 @@ pub fn arrange(
         }
     } else {
         h.clips = vec![NO_CLIP; n];
-        res.upload_clips(ctx, h)?;
-        res.write_globals(ctx, scene, h, p)?;
+        d.res.upload_clips(d.ctx, h)?;
+        d.res.write_globals(d.ctx, scene, h, p)?;
         out.bytes_up += 16 * n as u64;
         out.clips_computed = n;
     }
@@ -127,7 +115,7 @@ pub fn arrange(
 
     let t = Instant::now();
     progress.stage("parent relations");
-    let (computed, down) = relations(ctx, k, prof, res, scene, h, p, all, &changed)?;
+    let (computed, down) = relations(d, scene, h, p, all, &changed)?;
     out.parents_computed = computed;
     out.bytes_down += down;
     h.stats.seconds_parents = t.elapsed().as_secs_f64();
@@ -145,17 +133,8 @@ struct ClipsOut {
 }
 
 /// Kernel `clips` over the selection; `changed` gets a flag per changed clip.
-#[allow(clippy::too_many_arguments)]
-fn clips(
-    ctx: &Arc<Context>,
-    k: &ArrangeKernels,
-    prof: &mut Profiler,
-    res: &Resources,
-    scene: &Scene,
-    h: &Hierarchy,
-    sel: &ClipSelection,
-    changed: &Buffer,
-) -> Result<ClipsOut> {
+fn clips(d: &mut Device, scene: &Scene, h: &Hierarchy, sel: &ClipSelection, changed: &Buffer) -> Result<ClipsOut> {
+    let ctx = d.ctx;
     let n = h.nodes.len();
     let (boxes, moved, eps) = match sel {
         ClipSelection::All => (Vec::new(), vec![0u32; scene.objects.len()], 0.0),
@@ -188,7 +167,9 @@ fn clips(
         eps,
         ..Default::default()
     };
-    submit(ctx, prof, res.globals.address, |rec| k.clips.record(rec, &push))?;
+    submit(ctx, d.prof, d.res.globals.address, |rec| {
+        d.kernels.clips.record(rec, &push)
+    })?;
     let counts: Vec<u32> = out_count.download(0, 2)?;
     let (computed, m) = (counts[0] as usize, counts[1] as usize);
     let nodes: Vec<u32> = out_nodes.download(0, m)?;
@@ -210,18 +191,16 @@ fn clips(
 /// Kernels `relations` and `scan`: the relations built on the device into new buffers
 /// that replace `res`'s, and copied into `h` with their stats. Returns (lists computed,
 /// bytes down).
-#[allow(clippy::too_many_arguments)]
 fn relations(
-    ctx: &Arc<Context>,
-    k: &ArrangeKernels,
-    prof: &mut Profiler,
-    res: &mut Resources,
+    d: &mut Device,
     scene: &Scene,
     h: &mut Hierarchy,
     p: &SolverParams,
     all: bool,
     changed: &Buffer,
 ) -> Result<(usize, u64)> {
+    let (ctx, k) = (d.ctx, d.kernels);
+    let (prof, res) = (&mut *d.prof, &mut *d.res);
     let n = h.nodes.len();
     let words = |name: &str, count: usize| Buffer::zeroed(ctx, name, 4 * count as u64);
     let new_offset = words("parent offsets", n + 1)?;

@@ -192,17 +192,13 @@ impl GpuResident {
             }
         };
         up += self.res.write_globals(ctx, scene, h, p)?;
-        let mut a = super::arrange::arrange(
+        let mut device = super::arrange::Device {
             ctx,
-            &self.arrange,
-            &mut self.prof,
-            &mut self.res,
-            scene,
-            h,
-            p,
-            &sel,
-            progress,
-        )?;
+            kernels: &self.arrange,
+            prof: &mut self.prof,
+            res: &mut self.res,
+        };
+        let mut a = super::arrange::arrange(&mut device, scene, h, p, &sel, progress)?;
         if matches!(sel, ClipSelection::All) {
             a.clips_computed = h.nodes.len();
             a.parents_computed = h.nodes.len();
@@ -309,19 +305,9 @@ impl<'a> GpuBackend<'a> {
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
             reset_links: !self.keep_links,
         };
-        let (ctx, prof, globals) = (&self.ctx, &mut self.prof, self.res.globals.address);
-        ctx.run(|cmd| {
-            prof.begin_frame(cmd);
-            let mut rec = Recorder {
-                ctx,
-                prof,
-                cmd,
-                globals,
-            };
-            f(&schedule, &mut rec);
-            Ok(())
-        })?;
-        self.prof.end_frame()
+        super::kernels::submit(&self.ctx, &mut self.prof, self.res.globals.address, |rec| {
+            f(&schedule, rec)
+        })
     }
 
     /// Reads a per-node state array (tests and diagnostics).

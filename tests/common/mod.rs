@@ -41,3 +41,19 @@ pub fn shared_scene(rel: &str) -> PathBuf {
 pub fn rel(a: f64, b: f64) -> f64 {
     (a - b).abs() / b.abs().max(1e-30)
 }
+
+/// The link counts of a solve with `link_memory` MiB and `rays` rays per integral
+/// (`full`: room for fewer nodes than were gathered): links served integrals (more than
+/// were traced when there was room for all), the full case traced some for want of
+/// room, and the bytes held are the nodes' records.
+pub fn check_link_counts(l: &meshrad::transport::links::LinkStats, mib: u32, full: bool, rays: u64) {
+    assert!(
+        l.integrals_linked > if full { 0 } else { l.integrals_traced },
+        "link_memory {mib}: links served {} integrals, traced {}",
+        l.integrals_linked,
+        l.integrals_traced
+    );
+    assert_eq!(l.integrals_traced_full > 0, full, "link_memory {mib}: {l:?}");
+    assert!(l.bytes <= l.capacity_bytes, "{l:?}");
+    assert_eq!(l.bytes, l.nodes * rays * meshrad::transport::links::LINK_BYTES, "{l:?}");
+}

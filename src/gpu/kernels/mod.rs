@@ -89,6 +89,24 @@ impl Recorder<'_> {
     }
 }
 
+/// Records `f` into one command buffer on `ctx`'s queue, submits it and waits; its
+/// dispatches are timed under their kernels' names (`prof`), against the `Globals` block
+/// at address `globals`.
+pub fn submit(ctx: &Context, prof: &mut Profiler, globals: u64, f: impl FnOnce(&mut Recorder)) -> Result<()> {
+    ctx.run(|cmd| {
+        prof.begin_frame(cmd);
+        let mut rec = Recorder {
+            ctx,
+            prof,
+            cmd,
+            globals,
+        };
+        f(&mut rec);
+        Ok(())
+    })?;
+    prof.end_frame()
+}
+
 /// Workgroups for one thread per element.
 pub fn per_element(count: u64) -> u64 {
     count.div_ceil(LINEAR_GROUP as u64)
