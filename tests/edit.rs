@@ -589,6 +589,19 @@ fn groups_and_names_are_checked() {
             vec!["object[1].name", "unique"],
         ),
         (good.replace("name = \"spot\"", "name = 3"), vec!["light[0].name"]),
+        // A default name taken by an earlier explicit one: the error says it is a default.
+        (
+            good.replace("name = \"room\"", "name = \"object1\"")
+                .replace("name = \"shortbox\"\n", ""),
+            vec!["object[1].name", "no `name`", "default `object1`"],
+        ),
+        (
+            format!(
+                "{}\n[[light]]\ntype = \"point\"\nposition = [1.0, 1.0, 1.0]\nintensity = [1.0, 1.0, 1.0]\n",
+                good.replace("name = \"spot\"", "name = \"light1\"")
+            ),
+            vec!["light[1].name", "no `name`", "default `light1`"],
+        ),
         (
             good.replace("group = \"cbox_smallbox\"", "group = []"),
             vec!["object[1].group"],

@@ -233,6 +233,7 @@ impl Scene {
         let mut light_tables = Vec::new();
         for (i, l) in file.light.iter().enumerate() {
             let mut t = l.clone();
+            let named = t.contains_key("name");
             let name = match t.remove("name") {
                 None => format!("light{i}"),
                 Some(toml::Value::String(s)) if !s.trim().is_empty() => s,
@@ -248,7 +249,14 @@ impl Scene {
                 return Err(Error::SceneValue {
                     path: path.into(),
                     key: format!("light[{i}].name"),
-                    message: format!("`{name}` names an earlier light too: names must be unique"),
+                    message: if named {
+                        format!("`{name}` names an earlier light too: names must be unique")
+                    } else {
+                        format!(
+                            "this light has no `name`, and its default `{name}` names an earlier light: \
+                             names must be unique, so give it one"
+                        )
+                    },
                 });
             }
             light_names.push(name);
@@ -666,6 +674,11 @@ impl Builder {
                 key: format!("object[{i}].name"),
                 message: if name.trim().is_empty() {
                     "is empty".into()
+                } else if e.name.is_none() {
+                    format!(
+                        "this object has no `name`, and its default `{name}` names an earlier object: \
+                         names must be unique, so give it one"
+                    )
                 } else {
                     format!("`{name}` names an earlier object too: names must be unique")
                 },
