@@ -494,9 +494,13 @@ impl Editor {
         let keep_links = changed.objects.is_empty() && !changed.rebuild;
         if let (Some(ctx), None) = (&self.ctx, &self.gpu) {
             // A failed solve left nothing on the device: upload and arrange again.
-            let mut r = GpuResident::new(ctx, &self.scene, &self.hierarchy, &self.params)?;
-            r.arrange(ctx, &self.scene, &mut self.hierarchy, &self.params, None, progress)?;
-            self.gpu = Some(r);
+            self.gpu = Some(GpuResident::arranged(
+                ctx,
+                &self.scene,
+                &mut self.hierarchy,
+                &self.params,
+                progress,
+            )?);
         }
         let (solution, gpu) = match (self.ctx.clone(), self.gpu.take()) {
             (Some(ctx), Some(r)) => {

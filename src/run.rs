@@ -64,8 +64,7 @@ pub fn build_hierarchy(
     };
     let mut h = Hierarchy::build_unarranged(scene, params, progress)?;
     progress.stage("uploading to the GPU");
-    let mut r = GpuResident::new(ctx, scene, &h, params)?;
-    r.arrange(ctx, scene, &mut h, params, None, progress)?;
+    let r = GpuResident::arranged(ctx, scene, &mut h, params, progress)?;
     Ok((h, Some(r)))
 }
 

@@ -166,6 +166,21 @@ impl GpuResident {
         })
     }
 
+    /// [`GpuResident::new`] for a hierarchy from [`Hierarchy::build_unarranged`] (or one
+    /// to arrange again from scratch), then arranged on the device
+    /// ([`GpuResident::arrange`] of every node).
+    pub fn arranged(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        h: &mut Hierarchy,
+        p: &SolverParams,
+        progress: &Progress,
+    ) -> Result<GpuResident> {
+        let mut r = GpuResident::new(ctx, scene, h, p)?;
+        r.arrange(ctx, scene, h, p, None, progress)?;
+        Ok(r)
+    }
+
     /// Brings `h` (and its copy on the device) to `scene`'s arrangement on the device
     /// ([`super::arrange::arrange`]), where the transport runs: every node's clip and
     /// parent list (`moved = None`: a hierarchy from [`Hierarchy::build_unarranged`]), or

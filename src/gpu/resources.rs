@@ -224,6 +224,7 @@ impl Resources {
         let z = |name: &str, size: u64| Buffer::zeroed(ctx, name, size);
         let device = |name: &str, size: u64| Buffer::new(ctx, name, size, MemoryLocation::GpuOnly);
         let sc = SceneBuffers::upload(ctx, scene, h, p, cw)?;
+        let links = link_capacity(ctx, p, n);
         let state = NodeState {
             direct: z("direct", vec4_bytes(n))?,
             unshot: z("unshot", vec4_bytes(n))?,
@@ -238,12 +239,9 @@ impl Resources {
             counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.lights.len() as u64))?,
             energy: z("energy", 4 * ENERGY_SLOTS as u64)?,
             link_slot: device("link slots", (n * 4) as u64)?,
-            links: device(
-                "links",
-                link_capacity(ctx, p, n) as u64 * p.rays as u64 * LINK_RECORD_BYTES,
-            )?,
+            links: device("links", links as u64 * p.rays as u64 * LINK_RECORD_BYTES)?,
             link_counters: z("link counters", 4 * LINK_COUNTERS as u64)?,
-            link_capacity: link_capacity(ctx, p, n),
+            link_capacity: links,
         };
         let rays_in_flight = batch as u64 * p.rays as u64;
         let batches = largest_level.div_ceil(batch as usize) as u64 + 1;
