@@ -2,7 +2,8 @@
 // points mapped to the cosine-weighted hemisphere of the node, rotated about its normal
 // by the integral's random angle. Integral i of the batch is node `integral_node(i)`
 // (gather.glsl). With links (gather.glsl `links_on`), a node whose links are recorded
-// casts nothing, and a node's first traced gather gets a slot for them.
+// casts nothing (but in the exact first bounce, `links_read`), and a node's first traced
+// gather gets a slot for them.
 // CPU twin: transport::cpu::gather_integral.
 #version 460
 #include "geometry.glsl"
@@ -26,7 +27,7 @@ void main() {
         // hands out a link slot; a linked integral casts no ray.
         uint s = g.link_slot.v[j];
         if (r == 0u) {
-            if (is_linked(s)) {
+            if (is_linked(s) && links_read()) {
                 atomicAdd(g.link_counters.v[LINK_LINKED], 1u);
             } else {
                 atomicAdd(g.link_counters.v[LINK_TRACED], 1u);
@@ -40,7 +41,7 @@ void main() {
                 }
             }
         }
-        if (is_linked(s)) {
+        if (is_linked(s) && links_read()) {
             return;
         }
     }

@@ -4,7 +4,8 @@
 // bounce under `exact_first_bounce` the un-shot field is E_d itself, read exactly at the
 // hit by shadow rays. With links (gather.glsl `links_on`), a linked integral's sample is
 // its link's albedo times the un-shot value of its sender node, and a node's first
-// traced gather records the links. CPU twin: the loop body of
+// traced gather (the exact first bounce's too) records the links. A hit on a triangle
+// side without nodes reads nothing. CPU twin: the loop body of
 // transport::cpu::gather_integral and transport::links::gather.
 #version 460
 #include "surface.glsl"
@@ -22,7 +23,8 @@ void main() {
     uint n_rays = g.rays_per_integral;
     uint r = id % n_rays;
     uint s = links_on() ? g.link_slot.v[integral_node(g, id / n_rays)] : NONE;
-    if (is_linked(s)) {
+    bool recording = s != NONE && (s & LINK_RECORDING) != 0u;
+    if (is_linked(s) && links_read()) {
         // The link: the same product the traced read makes.
         uvec4 link = g.links.v[s * n_rays + r];
         vec3 c = link.x != NONE ? uintBitsToFloat(link.yzw) * g.unshot.v[link.x].xyz : vec3(0.0);
@@ -39,23 +41,28 @@ void main() {
         vec3 p = tri_point(tri, h.b1, h.b2);
         vec3 n = tri_normal(tri);
         vec3 d = xform_vector(ob.to_object, g.rays.v[id].d.xyz);
-        if (dot(n, d) > 0.0) {
+        bool back = dot(n, d) > 0.0;
+        if (back) {
             n = -n;
         }
+        // A side without nodes reads nothing (Hierarchy::side_has_nodes).
+        bool side = ((g.sides.v[h.tri] >> (back ? 1u : 0u)) & 1u) != 0u;
         a = albedo(g, h.tri, tri, h.b1, h.b2);
-        vec3 e;
+        if (VARIANT == VARIANT_APPROX && side && (pc.exact_direct == 0u || recording)) {
+            sender = approx_node(g, ob, g.sender_level, p, n);
+        }
+        vec3 e = vec3(0.0);
         if (pc.exact_direct == 1u) {
             e = direct_at(g, xform_point(ob.to_world, p), normalize(xform_vector(ob.to_world, n)), false);
         } else if (VARIANT == VARIANT_APPROX) {
-            sender = approx_node(g, ob, g.sender_level, p, n);
             e = sender != NONE ? g.unshot.v[sender].xyz : vec3(0.0);
-        } else {
+        } else if (side) {
             e = recon_sender(g, ob, p, n, g.unshot);
         }
         c = a * e;
     }
     g.contrib.v[id] = vec4(c, 0.0);
-    if (s != NONE) {
+    if (recording) {
         // The node's first traced gather: keep what later gathers read.
         g.links.v[(s & ~LINK_RECORDING) * n_rays + r] = uvec4(sender, floatBitsToUint(a));
     }

@@ -13,7 +13,7 @@ void main() {
     if (id >= batch_count() * g.rays_per_integral) {
         return;
     }
-    if (links_on() && is_linked(g.link_slot.v[integral_node(g, id / g.rays_per_integral)])) {
+    if (links_read() && is_linked(g.link_slot.v[integral_node(g, id / g.rays_per_integral)])) {
         return;
     }
     Ray ray = g.rays.v[id];

@@ -31,10 +31,17 @@ uint integral_node(GlobalsRef g, uint i) {
     return pc.from_list == 1u ? g.active_list.v[pc.batch_first + i] : pc.first + pc.batch_first + i;
 }
 
-// Whether this batch's integrals keep and read links (ALGORITHM.md §5.6): the
-// approximate variant's sender read (not the exact direct light), with room for links.
+// Whether this batch's integrals record links (ALGORITHM.md §5.6): the approximate
+// variant with room for links. The first bounce under `exact_first_bounce` records them
+// too (its rays are the later bounces' rays) but reads none: its samples are the exact
+// direct light at the hits.
 bool links_on() {
-    return VARIANT == VARIANT_APPROX && pc.exact_direct == 0u && pc.g.link_capacity > 0u;
+    return VARIANT == VARIANT_APPROX && pc.g.link_capacity > 0u;
+}
+
+// Whether this batch's linked integrals read their links instead of tracing.
+bool links_read() {
+    return links_on() && pc.exact_direct == 0u;
 }
 
 // Whether a node's gathers read its links (its slot, recorded by an earlier gather).

@@ -78,6 +78,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     NodeRef nodes;
     KdSplitRef splits;
     Uvec4Ref clips;
+    UintRef sides;
     UintRef parent_offset;
     ParentRef parents;
     UintRef child_offset;

@@ -22,6 +22,8 @@ pub struct Globals {
     pub nodes: u64,
     pub splits: u64,
     pub clips: u64,
+    /// Per triangle: bit 0, its front got nodes; bit 1, its back (`Hierarchy::sides`).
+    pub sides: u64,
     pub parent_offset: u64,
     pub parents: u64,
     pub child_offset: u64,
@@ -76,7 +78,7 @@ pub const CONTRIB_BYTES: u64 = 16;
 pub const LINK_RECORD_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 38 * 8 + 14 * 4);
-    assert!(std::mem::offset_of!(Globals, num_objects) == 304);
-    assert!(std::mem::offset_of!(Globals, sender_level) == 352);
+    assert!(std::mem::size_of::<Globals>() == 39 * 8 + 14 * 4);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 312);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 360);
 };

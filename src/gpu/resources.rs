@@ -36,6 +36,7 @@ pub struct SceneBuffers {
     pub nodes: Buffer,
     pub splits: Buffer,
     pub clips: Buffer,
+    pub sides: Buffer,
     pub parent_offset: Buffer,
     pub parents: Buffer,
     pub child_offset: Buffer,
@@ -72,6 +73,12 @@ impl Cwbvh {
     }
 }
 
+/// `Hierarchy::sides` as the kernels read it: per triangle, bit 0 for its front, bit 1
+/// for its back.
+fn side_bits(sides: &[bool]) -> Vec<u32> {
+    sides.chunks(2).map(|s| s[0] as u32 | (s[1] as u32) << 1).collect()
+}
+
 impl SceneBuffers {
     fn upload(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams, cw: &Cwbvh) -> Result<SceneBuffers> {
         let mut objects = h.object_infos(scene);
@@ -93,6 +100,7 @@ impl SceneBuffers {
             nodes: Buffer::upload(ctx, "nodes", &h.nodes[..])?,
             splits: Buffer::upload(ctx, "kd splits", &h.splits[..])?,
             clips: Buffer::upload(ctx, "support clips", &h.clips[..])?,
+            sides: Buffer::upload(ctx, "triangle sides", &side_bits(&h.sides)[..])?,
             parent_offset: Buffer::upload(ctx, "parent offsets", &h.parent_offset[..])?,
             parents: Buffer::upload(ctx, "parents", &h.parents[..])?,
             child_offset: Buffer::upload(ctx, "child offsets", &h.child_offset[..])?,
@@ -118,6 +126,7 @@ impl SceneBuffers {
             &self.nodes,
             &self.splits,
             &self.clips,
+            &self.sides,
             &self.parent_offset,
             &self.parents,
             &self.child_offset,
@@ -347,6 +356,7 @@ fn globals(
         nodes: s.nodes.address,
         splits: s.splits.address,
         clips: s.clips.address,
+        sides: s.sides.address,
         parent_offset: s.parent_offset.address,
         parents: s.parents.address,
         child_offset: s.child_offset.address,

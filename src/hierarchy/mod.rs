@@ -560,6 +560,14 @@ fn kd_trees(nodes: &mut [Node], objects: &[ObjectLevels]) -> Vec<KdSplit> {
 }
 
 impl Hierarchy {
+    /// Whether side `back` of global triangle `tri` got nodes. A hit on a side without
+    /// them (no light reaches it: the inside of a closed solid, the back of a wall) reads
+    /// nothing as a sender (`ALGORITHM.md` §5.1), without a search.
+    #[inline]
+    pub fn side_has_nodes(&self, tri: u32, back: bool) -> bool {
+        self.sides[2 * tri as usize + back as usize]
+    }
+
     /// Builds the hierarchy of `scene` for the solver parameters `p`: reachable sides,
     /// the levels' density, candidate pools, Poisson-disk levels, the level-major node
     /// array with its kd-trees, support clips, and the parent relations.

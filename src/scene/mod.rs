@@ -98,6 +98,8 @@ pub struct Surface {
     /// Object space, normal facing the ray's origin.
     pub p_obj: Vec3,
     pub n_obj: Vec3,
+    /// The ray met the triangle's back (the side against its winding normal).
+    pub back: bool,
     /// World space.
     pub p: Vec3,
     pub n: Vec3,
@@ -378,7 +380,8 @@ impl Scene {
         let tri = &self.tris[hit.tri as usize];
         let p_obj = tri_point(tri, hit.b1, hit.b2);
         let mut n_obj = tri_normal(tri);
-        if n_obj.dot(xform_vector(&o.to_object, ray_d)) > 0.0 {
+        let back = n_obj.dot(xform_vector(&o.to_object, ray_d)) > 0.0;
+        if back {
             n_obj = -n_obj;
         }
         Surface {
@@ -386,6 +389,7 @@ impl Scene {
             tri: hit.tri,
             p_obj,
             n_obj,
+            back,
             p: xform_point(&o.to_world, p_obj),
             n: xform_vector(&o.to_world, n_obj).normalize(),
             albedo: self.albedo(hit.tri, hit.b1, hit.b2),

@@ -123,7 +123,9 @@ pub fn first_bounce(scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Coverage 
                 let read = |v: Vec3| (s.albedo * v).dot(third) as f64;
                 // The delta hierarchy carries E_d as deltas; its absolute field on the sender
                 // level is about the exact Shepard sum there.
-                m.sender += read(if p.variant.is_delta() {
+                m.sender += read(if !h.side_has_nodes(s.tri, s.back) {
+                    Vec3::ZERO
+                } else if p.variant.is_delta() {
                     reconstruct::exact(h, ob, sl, xo, no, &direct).unwrap_or(Vec3::ZERO)
                 } else {
                     sender.read(h, ob, xo, no, &direct)

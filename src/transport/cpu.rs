@@ -97,7 +97,9 @@ pub fn gather_integral(
 }
 
 /// [`gather_integral`], recording each ray's link into `record` (the approximate
-/// reconstruction, not `exact_direct`; one entry per ray).
+/// reconstruction; one entry per ray). Under `exact_direct` the sample is still the exact
+/// direct irradiance at the hit, and the link is what the later bounces read there: the
+/// first bounce's rays are the later bounces' rays (§5.6).
 #[allow(clippy::too_many_arguments)]
 fn trace_integral(
     scene: &Scene,
@@ -109,7 +111,7 @@ fn trace_integral(
     exact_direct: bool,
     mut record: Option<&mut [Link]>,
 ) -> Gathered {
-    debug_assert!(record.is_none() || (p.variant == Variant::Approx && !exact_direct));
+    debug_assert!(record.is_none() || p.variant == Variant::Approx);
     let (x, n) = node_world(scene, h, j);
     let o = scene.offset(x, n);
     let (t, b) = onb(n);
@@ -123,10 +125,14 @@ fn trace_integral(
             continue;
         };
         let s = scene.surface(&hit, d);
-        let e = if exact_direct {
-            scene.direct(s.p, s.n)
-        } else if let Some(rec) = record.as_deref_mut() {
-            let node = reconstruct::approx_node(h, s.object as usize, sender.level, s.p_obj, s.n_obj, sender.cos_min);
+        let mut linked = None;
+        if let Some(rec) = record.as_deref_mut() {
+            // A side without nodes reads nothing (`Hierarchy::side_has_nodes`).
+            let node = if h.side_has_nodes(s.tri, s.back) {
+                reconstruct::approx_node(h, s.object as usize, sender.level, s.p_obj, s.n_obj, sender.cos_min)
+            } else {
+                None
+            };
             rec[r] = match node {
                 Some(i) => Link {
                     sender: i as u32,
@@ -134,9 +140,14 @@ fn trace_integral(
                 },
                 None => Link::NONE,
             };
+            linked = Some(node);
+        }
+        let e = if exact_direct {
+            scene.direct(s.p, s.n)
+        } else if let Some(node) = linked {
             node.map_or(Vec3::ZERO, |i| unshot[i].xyz())
         } else {
-            sender.read(h, s.object as usize, s.p_obj, s.n_obj, unshot)
+            sender.read_hit(h, &s, unshot)
         };
         est.add(s.albedo * e);
     }
@@ -350,10 +361,12 @@ impl Backend for CpuBackend<'_> {
 
     fn gather(&mut self, level: u32, exact: bool) -> Result<u32> {
         let list = self.active_list(level);
-        // Links serve the sender reads; the exact first bounce traces and records nothing.
+        // Links serve the sender reads. The exact first bounce traces every integral (its
+        // samples are the direct irradiance at the hits) and records the links of the
+        // nodes that have none, for the later bounces.
         let record = match self.links.as_mut() {
-            Some(l) if !exact => l.plan(&list),
-            _ => vec![false; list.len()],
+            Some(l) => l.plan(&list, exact),
+            None => vec![false; list.len()],
         };
         let links = self.links.as_ref().filter(|_| !exact);
         let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
@@ -367,7 +380,7 @@ impl Backend for CpuBackend<'_> {
                     Some(l) => (links::gather(l, unshot), None),
                     None if rec => {
                         let mut buf = vec![Link::NONE; halton.len()].into_boxed_slice();
-                        let g = trace_integral(scene, h, p, halton, unshot, j, false, Some(&mut buf));
+                        let g = trace_integral(scene, h, p, halton, unshot, j, exact, Some(&mut buf));
                         (g, Some(buf))
                     }
                     None => (gather_integral(scene, h, p, halton, unshot, j, exact), None),

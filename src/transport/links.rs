@@ -14,8 +14,9 @@
 //! The links' memory is bounded (`link_memory`, and what the run's memory limit leaves
 //! after the planned parts);
 //! nodes that find it full are traced in every bounce, as without links. The first bounce
-//! under `exact_first_bounce` reads `E_d` by shadow rays and records nothing: the nodes
-//! that only the first bounce gathers never pay for links.
+//! under `exact_first_bounce` reads `E_d` by shadow rays at the hits, and its rays are the
+//! later bounces' rays: it records the links too (the sender search at each hit, without
+//! a second trace), so the later bounces trace only the nodes the first did not gather.
 
 use glam::{Vec3, Vec4, Vec4Swizzles};
 use serde::Serialize;
@@ -56,7 +57,8 @@ pub struct LinkStats {
     pub nodes: u64,
     /// Integrals read from links (no ray traced).
     pub integrals_linked: u64,
-    /// Integrals traced that read the sender level (each records links while there is room).
+    /// Integrals traced (each records links, if it has none, while there is room): the
+    /// first bounce's under `exact_first_bounce`, and the later bounces' nodes without links.
     pub integrals_traced: u64,
     /// Of those, integrals traced because the links were full.
     pub integrals_traced_full: u64,
@@ -120,16 +122,20 @@ impl Links {
     }
 
     /// For each node of `list` in order: whether it records links when traced (it has
-    /// none yet and there is room). Counts what the gather will do.
-    pub fn plan(&mut self, list: &[u32]) -> Vec<bool> {
+    /// none yet and there is room). Counts what the gather will do. An `exact` gather (the
+    /// first bounce under `exact_first_bounce`) reads no link: it traces every integral.
+    pub fn plan(&mut self, list: &[u32], exact: bool) -> Vec<bool> {
         list.iter()
             .map(|&j| {
-                if self.per_node[j as usize].is_some() {
+                let has = self.per_node[j as usize].is_some();
+                if has && !exact {
                     self.stats.integrals_linked += 1;
                     return false;
                 }
                 self.stats.integrals_traced += 1;
-                if self.held < self.max_nodes {
+                if has {
+                    false
+                } else if self.held < self.max_nodes {
                     self.held += 1;
                     self.stats.nodes = self.held;
                     self.stats.bytes = self.held * self.rays as u64 * LINK_BYTES;
