@@ -38,6 +38,8 @@ fn table2_smoke() {
         "speedup",
         "Mrays/s",
         "rel. RMS error vs reference",
+        "end to end, cold (load to written images)",
+        "links memory",
         "Preprocessing",
     ] {
         assert!(text.contains(needle), "missing `{needle}`:\n{text}");
@@ -55,7 +57,17 @@ fn table2_smoke() {
     for c in cols {
         let e = c["error"]["rel_rms"].as_f64().unwrap();
         assert!(e > 0.0 && e < 0.5, "{c}");
+        // The cold run does at least the solve the column times, and more.
+        let (e2e, solve) = (
+            c["seconds_end_to_end"].as_f64().unwrap(),
+            c["measured"]["seconds"].as_f64().unwrap(),
+        );
+        assert!(e2e > solve, "end to end {e2e} s, solve {solve} s");
     }
+    // Links only where the variant keeps them (approx), and the images of the cold runs.
+    let links: Vec<bool> = cols.iter().map(|c| !c["measured"]["links_bytes"].is_null()).collect();
+    assert_eq!(links, [false, false, false, true]);
+    assert!(dir.path().join("t/cornell-smoke-images/total.exr").is_file());
 }
 
 #[test]

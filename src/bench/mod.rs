@@ -167,6 +167,8 @@ pub struct Measured {
     pub seconds_setup: f64,
     pub integrals: u64,
     pub rays: u64,
+    /// Bytes the links held at the end of the solve (`solve.links.bytes`; `None`: no links).
+    pub links_bytes: Option<u64>,
     /// Indirect irradiance at the probes.
     #[serde(skip)]
     pub values: Vec<Vec3>,
@@ -225,6 +227,7 @@ pub fn measure(
         seconds_setup: setup,
         integrals: st.integrals,
         rays: st.rays_gathered,
+        links_bytes: st.links.as_ref().map(|l| l.bytes),
         values,
     };
     Ok((m, sol))
