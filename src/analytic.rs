@@ -154,3 +154,99 @@ pub fn plane(dir: &Path, s: f64, h: f64, i: f64, tessellate: u32, solver: &str) 
 pub fn plane_expected(h: f64, i: f64, d: f64) -> f64 {
     i * h / (h * h + d * d).powf(1.5)
 }
+
+/// The faces of a cube `[-a, a]³`, each square as two triangles wound so that their
+/// normals point inward (`inward`) or outward.
+fn cube(a: f64, inward: bool) -> (Vec<[f64; 3]>, Vec<[usize; 3]>) {
+    let v: Vec<[f64; 3]> = (0..8)
+        .map(|k| {
+            let s = |b: usize| if k >> b & 1 == 1 { a } else { -a };
+            [s(0), s(1), s(2)]
+        })
+        .collect();
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let mut f = Vec::new();
+    for q in quads {
+        for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            let p = |i: usize| glam::DVec3::from(v[t[i]]);
+            let n = (p(1) - p(0)).cross(p(2) - p(0));
+            let out = n.dot(p(0) + p(1) + p(2)) > 0.0;
+            f.push(if out == inward { [t[0], t[2], t[1]] } else { t });
+        }
+    }
+    (v, f)
+}
+
+/// The emitting furnace: a closed cube `[-a, a]³` whose walls all emit radiance `le`
+/// from their inside (MTL `Ke`) and reflect `rho`; no light. At every point of the inside
+/// the walls fill the hemisphere, so `E_d = π L_e`, and bounce `k` alone adds `ρ^k π L_e`:
+/// `E_ind = π L_e Σ_{b=1..k} ρ^b` after `k` bounces, `π L_e ρ/(1 − ρ)` converged.
+pub fn emitting_box(dir: &Path, a: f64, rho: f64, le: f64, tessellate: u32, solver: &str) -> Result<PathBuf> {
+    let (v, f) = cube(a, true);
+    write(dir, "box.obj", &obj_text(&v, &f, "box.mtl", "wall"))?;
+    write(
+        dir,
+        "box.mtl",
+        &format!("newmtl wall\nKd {rho} {rho} {rho}\nKe {le} {le} {le}\n"),
+    )?;
+    write(
+        dir,
+        "box.toml",
+        &format!(
+            "[[object]]\nmesh = \"box.obj\"\ntessellate = {tessellate}\n\n[camera]\nposition = [0.0, 0.0, {cz}]\n\
+             target = [0.0, 0.0, 0.0]\nfov = 90.0\nwidth = 32\nheight = 32\n\n[solver]\n{solver}\n",
+            cz = a * 0.5
+        ),
+    )
+}
+
+/// A floor `[-s, s]² × {0}` (normal +y, albedo 0.5) under a square emitter
+/// `[-a, a]² × {h}` facing down with radiance `le` (MTL `Ke`); no light.
+pub fn square_emitter(dir: &Path, s: f64, a: f64, h: f64, le: f64, solver: &str) -> Result<PathBuf> {
+    write(
+        dir,
+        "scene.obj",
+        &format!(
+            "mtllib scene.mtl\nusemtl floor\nv {s} 0 {s}\nv {s} 0 -{s}\nv -{s} 0 -{s}\nv -{s} 0 {s}\nf 1 2 3\nf 1 3 4\n\
+             usemtl lamp\nv {a} {h} {a}\nv -{a} {h} {a}\nv -{a} {h} -{a}\nv {a} {h} -{a}\nf 5 6 7\nf 5 7 8\n"
+        ),
+    )?;
+    write(
+        dir,
+        "scene.mtl",
+        &format!("newmtl floor\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0 0 0\nKe {le} {le} {le}\n"),
+    )?;
+    write(
+        dir,
+        "scene.toml",
+        &format!(
+            "[[object]]\nmesh = \"scene.obj\"\n\n[camera]\nposition = [0.0, {cy}, {cz}]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 60.0\nwidth = 32\nheight = 32\n\n[solver]\n{solver}\n",
+            cy = h * 0.5,
+            cz = s
+        ),
+    )
+}
+
+/// Irradiance at `x` (unit normal `n`) from a uniformly emitting polygon of radiance `le`
+/// with corners `poly` (in order), wholly above `x`'s tangent plane: Lambert's formula
+/// `E = (L/2) |Σ_i θ_i n · (v_i × v_{i+1}) / |v_i × v_{i+1}||`, `v_i` the unit vectors to
+/// the corners and `θ_i` the angle between consecutive ones.
+pub fn polygon_irradiance(x: glam::DVec3, n: glam::DVec3, poly: &[glam::DVec3], le: f64) -> f64 {
+    let mut s = 0.0;
+    for i in 0..poly.len() {
+        let a = (poly[i] - x).normalize();
+        let b = (poly[(i + 1) % poly.len()] - x).normalize();
+        let c = a.cross(b);
+        let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+        s += theta * n.dot(c.normalize());
+    }
+    0.5 * le * s.abs()
+}

@@ -124,6 +124,11 @@ pub struct SolverParams {
     /// §5.6). Nodes that find it full are traced every time. Also bounded by what the
     /// memory limit leaves. 0: off.
     pub link_memory: u32,
+    /// Shadow rays per point to emitting surfaces (MTL `Ke`) for the direct irradiance at
+    /// nodes, probe points and pixels (`ALGORITHM.md` §2.2; its standard error is in
+    /// stats.json). A gathering ray's hit and a reference path's vertex take one, as their
+    /// means average many. Read when the scene loads.
+    pub emitter_samples: u32,
     /// Support `h_l = kappa * r_l`.
     pub kappa: f32,
     /// Weight of the normal difference in the distance `δ`.
@@ -181,6 +186,7 @@ impl Default for SolverParams {
             sparse_parents: 3,
             sparse_bounces: 10_000,
             link_memory: 2048,
+            emitter_samples: 64,
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,
@@ -245,6 +251,7 @@ impl SolverParams {
         range("sparse_parents", self.sparse_parents, 0, 1 << 16)?;
         range("sparse_bounces", self.sparse_bounces, 0, 10_000)?;
         range("link_memory", self.link_memory, 0, 1 << 24)?;
+        range("emitter_samples", self.emitter_samples, 1, 1 << 16)?;
         range("max_candidates", self.max_candidates, 1, 200_000_000)?;
         range("reach_paths", self.reach_paths, 1024, 1 << 28)?;
         range("reach_bounces", self.reach_bounces, 1, 64)?;

@@ -5,7 +5,8 @@
 //!
 //! Estimator: `E_ind(x) = Σ_{k≥1} (Π_{i≤k} ρ(y_i)) E_d(y_k)` along a path from `x` whose
 //! directions are cosine-distributed (so each step's weight is `ρ`, no `cos/pdf`), with
-//! `E_d(y_k)` exact by shadow rays. Bounce `k` of the solver is term `k`; `max_bounces`
+//! `E_d(y_k)` by shadow rays: exact for the lights, one sample of the emitting surfaces
+//! (`Scene::direct_one`; the paths' mean averages them). Bounce `k` of the solver is term `k`; `max_bounces`
 //! cuts the series as the solver does (0: unbounded, Russian roulette after `rr_after`).
 
 use glam::{DVec3, Vec2, Vec3};
@@ -65,7 +66,7 @@ fn path(scene: &Scene, x: Vec3, n: Vec3, opts: &ReferenceOptions, rng: &mut Rng)
         };
         let s = scene.surface(&hit, d);
         weight *= s.albedo.as_dvec3();
-        sum += weight * scene.direct(s.p, s.n).as_dvec3();
+        sum += weight * scene.direct_one(s.p, s.n).as_dvec3();
         if opts.max_bounces > 0 && k >= opts.max_bounces {
             break;
         }
@@ -111,7 +112,7 @@ pub fn terms(scene: &Scene, x: Vec3, n: Vec3, opts: &ReferenceOptions, terms: us
             if weight.max_element() == 0.0 {
                 break;
             }
-            *term += weight * scene.direct(s.p, s.n).as_dvec3();
+            *term += weight * scene.direct_one(s.p, s.n).as_dvec3();
             p = s.p;
             nrm = s.n;
         }

@@ -187,10 +187,12 @@ fn probe_prints_the_csv() {
         .collect();
     assert_eq!(rows.len(), 3);
     for r in &rows {
-        assert_eq!(r.len(), 18);
+        assert_eq!(r.len(), 21);
         for c in 0..3 {
             assert!((r[12 + c] - r[6 + c] - r[9 + c]).abs() < 1e-4 * r[12 + c].abs().max(1.0));
         }
+        // The spot is exact: no direct standard error.
+        assert_eq!(&r[18..21], &[0.0; 3]);
     }
     // The floor centre is directly under the spot: E_d = I / h².
     let want = 300000.0 / (548.0f64 * 548.0);

@@ -33,7 +33,7 @@ fn cornell_with(short: &str, tall: &str, spot: &str, solver: &str) -> String {
     let mesh = format!("{}/scenes/cornell_original_mm.obj", env!("CARGO_MANIFEST_DIR"));
     format!(
         "[[object]]\nname = \"room\"\nmesh = \"{mesh}\"\ngroup = [\"cbox_floor\", \"cbox_ceiling\", \"cbox_back\", \
-         \"cbox_greenwall\", \"cbox_redwall\", \"cbox_luminaire\"]\n\n\
+         \"cbox_greenwall\", \"cbox_redwall\", \"cbox_luminaire\"]\nemission = false\n\n\
          [[object]]\nname = \"shortbox\"\nmesh = \"{mesh}\"\ngroup = \"cbox_smallbox\"\n{short}\n\n\
          [[object]]\nname = \"tallbox\"\nmesh = \"{mesh}\"\ngroup = \"cbox_largebox\"\n{tall}\n\n\
          [[light]]\nname = \"spot\"\ntype = \"spot\"\n{spot}\nintensity = [300000.0, 300000.0, 300000.0]\n\

@@ -47,7 +47,8 @@ fn point_light_over_plane() {
         })
         .collect();
     let vals = probe::evaluate(&scene, &hier, &sol, &probes, &params);
-    for (q, (d, ind)) in probes.iter().zip(&vals) {
+    for (q, v) in probes.iter().zip(&vals) {
+        let (d, ind) = (&v.direct, &v.indirect);
         let want = plane_expected(h, i, (q.p.x as f64).hypot(q.p.z as f64));
         assert!(common::rel(d.x as f64, want) < 1e-5, "probe {q:?}: {d} vs {want}");
         assert_eq!(ind.mean, Vec3::ZERO);

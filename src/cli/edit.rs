@@ -11,7 +11,7 @@ use glam::Vec3;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use super::{gpu_context, load_scene, report_load, ImageSummary, PhaseSeconds, RunStats, SceneSummary, SolverArgs};
+use super::{load_scene, report_load, ImageSummary, PhaseSeconds, RunStats, SceneSummary, SolverArgs};
 use crate::edit::{self, Changed, Edit, Editor, Frame, FrameSeconds};
 use crate::output::{self, image, probe};
 use crate::progress::Progress;
@@ -162,7 +162,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         }
     }
     output::check_outputs(&planned, &inputs)?;
-    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let ctx = super::scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let mut ed = Editor::new(scene, params, ctx, &progress)?;
     if !a.solver.quiet {
         eprintln!(
@@ -312,10 +312,11 @@ impl Session {
                 );
                 let out: Vec<Value> = values
                     .iter()
-                    .map(|(d, r)| {
-                        let t = *d + r.mean;
+                    .map(|v| {
+                        let (d, r) = (v.direct, v.indirect);
+                        let t = d + r.mean;
                         json!({"direct": d.to_array(), "indirect": r.mean.to_array(), "total": t.to_array(),
-                               "indirect_se": r.std_err.to_array()})
+                               "indirect_se": r.std_err.to_array(), "direct_se": v.direct_se.to_array()})
                     })
                     .collect();
                 Ok(json!({"ok": true, "solved": solved, "values": out}))
@@ -366,7 +367,7 @@ pub fn session(a: SessionArgs) -> Result<()> {
     let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, true);
     let params = edit::editing_params(&params, "session")?;
-    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), true)?;
+    let ctx = super::scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), true)?;
     let inputs = scene.report.inputs.clone();
     let ed = Editor::new(scene, params, ctx, &progress)?;
     let mut s = Session {

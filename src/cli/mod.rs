@@ -300,6 +300,27 @@ impl SceneSummary {
 /// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
 /// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
 /// backend is faster, so `auto` takes the CPU there, and says why on stderr.
+/// [`gpu_context`] for `scene`: under `auto`, a scene the GPU backend cannot run yet
+/// (emitting surfaces) runs on the CPU, with a note; asked for by `--backend gpu`, the GPU
+/// backend's own error says why.
+pub fn scene_context(
+    scene: &crate::scene::Scene,
+    choice: BackendChoice,
+    device: Option<&str>,
+    quiet: bool,
+) -> Result<Option<Arc<Context>>> {
+    if choice == BackendChoice::Auto && device.is_none() && crate::gpu::unsupported(scene).is_some() {
+        if !quiet {
+            eprintln!(
+                "note: auto backend: {}; using the CPU backend",
+                crate::gpu::unsupported(scene).unwrap_or_default()
+            );
+        }
+        return Ok(None);
+    }
+    gpu_context(choice, device, quiet)
+}
+
 pub fn gpu_context(choice: BackendChoice, device: Option<&str>, quiet: bool) -> Result<Option<Arc<Context>>> {
     let opts = ContextOptions::from_env(device.map(String::from));
     match choice {
@@ -354,7 +375,7 @@ fn report_load(scene: &Scene, quiet: bool) {
     }
     if !r.emissive_materials_ignored.is_empty() {
         eprintln!(
-            "note: emission (Ke) is not supported yet; ignored for material(s) {}",
+            "note: emission (Ke) of material(s) {} is off (`emission = false` on its object)",
             r.emissive_materials_ignored.join(", ")
         );
     }
@@ -439,7 +460,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         planned.push(("--export-nodes", p.clone()));
     }
     output::check_outputs(&planned, &scene.report.inputs)?;
-    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let ctx = scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
@@ -507,7 +528,7 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
         inputs.push(a.points.clone());
         output::check_outputs(&[("--out", p.clone())], &inputs)?;
     }
-    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let ctx = scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);

@@ -118,7 +118,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
 
 /// Reference images: exact direct light and path-traced indirect irradiance per pixel.
 fn render(scene: &Scene, opts: &ReferenceOptions, progress: &Progress) -> image::Images {
-    let all = vec![true; scene.lights.len()];
+    let all = vec![true; scene.sources()];
     image::render_with(scene, &all, progress, |s, pixel| {
         reference::indirect(scene, s.p, s.n, opts, pixel as u64).mean.as_vec3()
     })

@@ -133,6 +133,16 @@ impl GpuResident {
     /// hierarchy (its clips and relations as they are: [`GpuResident::arrange`] computes
     /// them on the device).
     pub fn new(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<GpuResident> {
+        if let Some(why) = super::unsupported(scene) {
+            return Err(crate::error::Error::SceneValue {
+                path: scene.path.clone(),
+                key: "object".into(),
+                message: format!(
+                    "{why}; run it with --backend cpu, or set `emission = false` on the object to make them \
+                     plain diffuse surfaces"
+                ),
+            });
+        }
         let t = Instant::now();
         let spec = specialization(p, scene);
         let k = Kernels::new(ctx, spec)?;

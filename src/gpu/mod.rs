@@ -15,6 +15,16 @@ pub mod resources;
 pub mod schedule;
 
 pub use backend::GpuBackend;
+
+/// What in `scene` the GPU backend cannot run yet, in words; `None`: all of it.
+pub fn unsupported(scene: &crate::scene::Scene) -> Option<String> {
+    scene.emitters.any().then(|| {
+        format!(
+            "{} emitting triangles (MTL Ke): emissive surfaces are not on the GPU backend yet",
+            scene.emitters.list.len()
+        )
+    })
+}
 pub use context::{list_devices, Context, ContextOptions, DeviceInfo};
 
 use ash::vk;

@@ -58,7 +58,9 @@ pub fn render_with(
                     Some(hit) => {
                         let s = scene.surface(&hit, ray.d);
                         let k = s.albedo / std::f32::consts::PI;
-                        (k * scene.direct_from(s.p, s.n, lights), k * indirect(&s, y * w + x))
+                        // An emitter shows its own radiance (`Scene::emitted`).
+                        let d = k * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s);
+                        (d, k * indirect(&s, y * w + x))
                     }
                     None => (Vec3::ZERO, Vec3::ZERO),
                 };
@@ -93,7 +95,7 @@ pub fn render_with(
 /// a light that reaches no node (a narrow beam between them) still lights the surfaces
 /// it reaches.
 pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParams, progress: &Progress) -> Images {
-    let lights = vec![true; scene.lights.len()];
+    let lights = vec![true; scene.sources()];
     let read = Readout::for_pixels(scene, h, sol, params);
     render_with(scene, &lights, progress, |s, _| read.on_surface(s))
 }

@@ -13,11 +13,12 @@ use crate::scene::Scene;
 use crate::transport::readout::{Read, Readout};
 use crate::transport::Solution;
 
-/// The CSV header of `probe`: the point, direct (exact), indirect and total irradiance, and
-/// the standard error of the indirect (and total) value: the final gather's Monte Carlo
-/// noise, 0 when the basis is read at the point.
+/// The CSV header of `probe`: the point, direct, indirect and total irradiance, the
+/// standard error of the indirect value (the final gather's Monte Carlo noise, 0 when the
+/// basis is read at the point) and of the direct one (the emitting surfaces' sampling, 0
+/// for lights alone: they are exact).
 pub const HEADER: &str = "px,py,pz,nx,ny,nz,direct_r,direct_g,direct_b,indirect_r,indirect_g,indirect_b,\
-total_r,total_g,total_b,indirect_se_r,indirect_se_g,indirect_se_b";
+total_r,total_g,total_b,indirect_se_r,indirect_se_g,indirect_se_b,direct_se_r,direct_se_g,direct_se_b";
 
 /// A query point with a unit normal.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -79,19 +80,36 @@ pub fn read(path: &Path) -> Result<Vec<Probe>> {
     parse(path, &text)
 }
 
-/// Direct (exact) and indirect (read as `params` ask: the basis on the output level,
-/// clamped at zero, or a final gather with its standard error) irradiance at each probe.
+/// A probe's values.
+#[derive(Clone, Copy, Debug)]
+pub struct ProbeValue {
+    pub direct: Vec3,
+    /// The direct value's standard error (the emitters' sampling).
+    pub direct_se: Vec3,
+    pub indirect: Read,
+}
+
+/// Direct (exact for lights, sampled for emitting surfaces, with its standard error) and
+/// indirect (read as `params` ask: the basis on the output level, clamped at zero, or a
+/// final gather with its standard error) irradiance at each probe.
 pub fn evaluate(
     scene: &Scene,
     h: &Hierarchy,
     sol: &Solution,
     probes: &[Probe],
     params: &SolverParams,
-) -> Vec<(Vec3, Read)> {
+) -> Vec<ProbeValue> {
     let read = Readout::new(scene, h, sol, params);
     probes
         .par_iter()
-        .map(|q| (scene.direct(q.p, q.n), read.at(q.p, q.n)))
+        .map(|q| {
+            let (direct, direct_se) = scene.direct_with_error(q.p, q.n);
+            ProbeValue {
+                direct,
+                direct_se,
+                indirect: read.at(q.p, q.n),
+            }
+        })
         .collect()
 }
 
@@ -117,16 +135,36 @@ pub fn reference_csv(probes: &[Probe], direct: &[Vec3], est: &[crate::reference:
 }
 
 /// The CSV text for probes and their values.
-pub fn csv(probes: &[Probe], values: &[(Vec3, Read)]) -> String {
+pub fn csv(probes: &[Probe], values: &[ProbeValue]) -> String {
     let mut s = String::from(HEADER);
     s.push('\n');
-    for (q, (d, r)) in probes.iter().zip(values) {
-        let (i, se) = (r.mean, r.std_err);
-        let t = *d + i;
+    for (q, v) in probes.iter().zip(values) {
+        let (d, ds, i, se) = (v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err);
+        let t = d + i;
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            q.p.x, q.p.y, q.p.z, q.n.x, q.n.y, q.n.z, d.x, d.y, d.z, i.x, i.y, i.z, t.x, t.y, t.z, se.x, se.y, se.z
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            q.p.x,
+            q.p.y,
+            q.p.z,
+            q.n.x,
+            q.n.y,
+            q.n.z,
+            d.x,
+            d.y,
+            d.z,
+            i.x,
+            i.y,
+            i.z,
+            t.x,
+            t.y,
+            t.z,
+            se.x,
+            se.y,
+            se.z,
+            ds.x,
+            ds.y,
+            ds.z
         );
     }
     s

@@ -36,6 +36,9 @@ pub struct ObjectEntry {
     pub scale: Option<f32>,
     /// Split every triangle into four, this many times.
     pub tessellate: Option<u32>,
+    /// Whether its materials' emission (MTL `Ke`) lights the scene (default true); false:
+    /// the emitting faces are plain diffuse surfaces.
+    pub emission: Option<bool>,
 }
 
 /// One group name or several.

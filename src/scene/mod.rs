@@ -3,6 +3,7 @@
 
 pub mod camera;
 pub mod config;
+pub mod emitter;
 pub mod light;
 pub mod obj;
 pub mod reach;
@@ -39,6 +40,8 @@ pub struct SceneObject {
     pub bvh_root: u32,
     /// Surface area in object space (one side).
     pub area: f64,
+    /// Its materials' emission lights the scene (`[[object]] emission`, default true).
+    pub emits: bool,
 }
 
 /// What loading reported (also written to stats.json).
@@ -47,7 +50,10 @@ pub struct LoadReport {
     pub triangles: usize,
     pub degenerate_dropped: usize,
     pub faces_without_material: usize,
+    /// Emitting materials whose emission an object's `emission = false` turned off.
     pub emissive_materials_ignored: Vec<String>,
+    /// Triangles that emit light (MTL `Ke`).
+    pub emitting_triangles: usize,
     pub textures: usize,
     /// What was read but not used (e.g. `map_Kd` options without effect), one line each.
     pub notes: Vec<String>,
@@ -74,6 +80,11 @@ pub struct Scene {
     pub textures: Vec<TextureInfo>,
     pub texels: Vec<u32>,
     pub srgb: [f32; 256],
+    /// Emitted radiance per material (zero where none, or where its object's `emission`
+    /// is false).
+    pub emission: Vec<Vec3>,
+    /// The emitting triangles and how they are sampled.
+    pub emitters: emitter::Emitters,
     pub lights: Vec<GpuLight>,
     /// Each light's name (`[[light]] name`, default `light<i>`), unique.
     pub light_names: Vec<String>,
@@ -224,13 +235,6 @@ impl Scene {
                 message: "the scene has no [[object]]: nothing to light".into(),
             });
         }
-        if file.light.is_empty() {
-            return Err(Error::SceneValue {
-                path: path.into(),
-                key: "light".into(),
-                message: "the scene has no [[light]]: everything would be black".into(),
-            });
-        }
         let mut light_names = Vec::new();
         let mut light_tables = Vec::new();
         for (i, l) in file.light.iter().enumerate() {
@@ -269,11 +273,13 @@ impl Scene {
             .enumerate()
             .map(|(i, l)| light::from_table(l, i, path))
             .collect::<Result<Vec<_>>>()?;
-        check_light_power(&lights).map_err(|message| Error::SceneValue {
-            path: path.into(),
-            key: "light".into(),
-            message,
-        })?;
+        if !lights.is_empty() {
+            check_light_power(&lights).map_err(|message| Error::SceneValue {
+                path: path.into(),
+                key: "light".into(),
+                message,
+            })?;
+        }
         // What the parameters alone ask for, before any mesh is read; checked again with
         // the triangles in `finish`.
         let camera = file.camera.as_ref().map(|c| Camera::from_entry(c, path)).transpose()?;
@@ -295,6 +301,14 @@ impl Scene {
             b.add_object(&source, path, i, entry)?;
         }
         let mut scene = b.finish(path, &source, lights, file.camera.as_ref(), &file.solver)?;
+        if scene.lights.is_empty() && !scene.emitters.any() {
+            return Err(Error::SceneValue {
+                path: path.into(),
+                key: "light".into(),
+                message: "the scene has no [[light]] and no emitting surface (MTL Ke): everything would be black"
+                    .into(),
+            });
+        }
         scene.light_names = light_names;
         scene.light_tables = light_tables;
         Ok((scene, file.solver))
@@ -322,6 +336,8 @@ impl Scene {
         let (lo, hi, scale) = world_bounds(&self.objects, &self.tris).map_err(|m| ("translate", m))?;
         self.bounds = (lo, hi);
         self.scale = scale;
+        let placed: Vec<_> = self.objects.iter().map(|o| o.to_world).collect();
+        self.emitters.place(&self.tris, &placed);
         Ok(())
     }
 
@@ -417,15 +433,32 @@ impl Scene {
         offset_origin(p, n, self.scale)
     }
 
-    /// Exact direct irradiance at a world-space point `(x, n)`: every light, each with a
-    /// shadow ray (`ALGORITHM.md` §2).
+    /// Direct irradiance at a world-space point `(x, n)` (`ALGORITHM.md` §2): every light
+    /// exactly, each with a shadow ray, and the emitting surfaces estimated with
+    /// `emitter_samples` shadow rays.
     pub fn direct(&self, x: Vec3, n: Vec3) -> Vec3 {
+        self.direct_with_error(x, n).0
+    }
+
+    /// [`Scene::direct`] and its standard error (the emitters' sampling; lights are exact).
+    pub fn direct_with_error(&self, x: Vec3, n: Vec3) -> (Vec3, Vec3) {
+        let (mut e, mut se) = (Vec3::ZERO, Vec3::ZERO);
+        self.direct_sources(x, n, self.emitters.samples(), |_, v, s| {
+            e += v;
+            se += s;
+        });
+        (e, se)
+    }
+
+    /// [`Scene::direct`] with one emitter sample: the direct light at a gathering ray's
+    /// hit or a reference path's vertex, whose means average many such estimates.
+    pub fn direct_one(&self, x: Vec3, n: Vec3) -> Vec3 {
         let mut e = Vec3::ZERO;
-        self.direct_each(x, n, |_, v| e += v);
+        self.direct_sources(x, n, 1, |_, v, _| e += v);
         e
     }
 
-    /// Direct irradiance from the lights `which` only.
+    /// Direct irradiance from the sources `which` only (indexed as [`Scene::sources`]).
     pub fn direct_from(&self, x: Vec3, n: Vec3, which: &[bool]) -> Vec3 {
         let mut e = Vec3::ZERO;
         self.direct_each(x, n, |i, v| {
@@ -436,17 +469,65 @@ impl Scene {
         e
     }
 
-    /// Calls `f(light index, irradiance)` for each light that reaches `(x, n)`.
+    /// Light sources: the lights, then the emitting surfaces as one more if there are any.
+    pub fn sources(&self) -> usize {
+        self.lights.len() + self.emitters.any() as usize
+    }
+
+    /// Calls `f(source index, irradiance)` for each source that reaches `(x, n)`
+    /// ([`Scene::sources`]; the emitters with `emitter_samples` shadow rays).
     pub fn direct_each(&self, x: Vec3, n: Vec3, mut f: impl FnMut(usize, Vec3)) {
+        self.direct_sources(x, n, self.emitters.samples(), |i, v, _| f(i, v));
+    }
+
+    /// [`Scene::direct_each`] with each source's standard error (zero for the lights).
+    pub fn direct_each_with_error(&self, x: Vec3, n: Vec3, f: impl FnMut(usize, Vec3, Vec3)) {
+        self.direct_sources(x, n, self.emitters.samples(), f);
+    }
+
+    /// [`Scene::direct_each`] with `samples` emitter samples, and each source's standard
+    /// error.
+    fn direct_sources(&self, x: Vec3, n: Vec3, samples: usize, mut f: impl FnMut(usize, Vec3, Vec3)) {
         let o = self.offset(x, n);
         for (i, l) in self.lights.iter().enumerate() {
             if let Some(s) = light::light_sample(l, x, n, o) {
                 let ray = Ray { o, d: s.to_light };
                 if !self.occluded(&ray, s.tmax) {
-                    f(i, s.irradiance);
+                    f(i, s.irradiance, Vec3::ZERO);
                 }
             }
         }
+        if !self.emitters.any() {
+            return;
+        }
+        // The point's own shift of the sample set: a function of where it is.
+        let bits = |v: Vec3| (v.x.to_bits() as u64) << 32 ^ (v.y.to_bits() as u64) << 16 ^ v.z.to_bits() as u64;
+        let seed = emitter::mix64(bits(x)) ^ bits(n);
+        let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+        self.emitters
+            .for_each_sample(&self.tris, emitter::Receiver { x, n, o }, seed, samples, |s| {
+                if let Some(s) = s {
+                    let ray = Ray { o, d: s.to_point };
+                    if !self.occluded(&ray, crate::constants::SHADOW_TMAX) {
+                        let v = s.value.as_dvec3();
+                        sum += v;
+                        sum2 += v * v;
+                    }
+                }
+            });
+        let (mean, err) = emitter::mean_and_error(sum, sum2, samples.min(self.emitters.samples()));
+        if mean.max_element() > 0.0 {
+            f(self.lights.len(), mean, err);
+        }
+    }
+
+    /// The radiance a surface point sends toward the ray that found it by emitting: its
+    /// material's `L_e` on an emitting triangle's front, zero elsewhere.
+    pub fn emitted(&self, s: &Surface) -> Vec3 {
+        if s.back {
+            return Vec3::ZERO;
+        }
+        self.emission[self.tris[s.tri as usize].material as usize]
     }
 
     /// Whether any material is textured (texture sampling can be compiled out otherwise).
@@ -634,6 +715,8 @@ struct Builder {
     uvs: Vec<[f32; 6]>,
     bvh: Vec<BvhNode>,
     materials: Vec<obj::MtlData>,
+    /// Whether each material's object lets it emit.
+    material_emits: Vec<bool>,
     report: LoadReport,
 }
 
@@ -688,7 +771,16 @@ impl Builder {
                 },
             });
         }
+        let emits = e.emission.unwrap_or(true);
+        if !emits {
+            for m in mesh.materials.iter().filter(|m| m.emission.iter().any(|&c| c > 0.0)) {
+                if !self.report.emissive_materials_ignored.contains(&m.name) {
+                    self.report.emissive_materials_ignored.push(m.name.clone());
+                }
+            }
+        }
         self.objects.push(SceneObject {
+            emits,
             name,
             transform,
             to_world: transform.to_world(),
@@ -706,6 +798,7 @@ impl Builder {
         }
         self.uvs.resize(tri_offset as usize + n, [0.0; 6]);
         self.bvh.extend(nodes);
+        self.material_emits.extend(mesh.materials.iter().map(|_| emits));
         self.materials.extend(mesh.materials);
         Ok(())
     }
@@ -812,9 +905,6 @@ impl Builder {
         let mut texture_paths: Vec<PathBuf> = Vec::new();
         let mut materials = Vec::new();
         for m in &self.materials {
-            if m.emissive && !self.report.emissive_materials_ignored.contains(&m.name) {
-                self.report.emissive_materials_ignored.push(m.name.clone());
-            }
             let kd = m.kd;
             let bad_kd = |msg: &str| Error::Mesh {
                 path: m.origin.clone(),
@@ -900,7 +990,27 @@ impl Builder {
         self.report.textures = textures.len();
         self.report.planned_bytes =
             plan_memory(&self.limits, path, self.tris.len(), params, &camera, self.objects.len())?;
+        let emission: Vec<Vec3> = self
+            .materials
+            .iter()
+            .zip(&self.material_emits)
+            .map(|(m, &on)| if on { Vec3::from(m.emission) } else { Vec3::ZERO })
+            .collect();
+        let placed: Vec<_> = self
+            .objects
+            .iter()
+            .map(|o| (o.to_world, o.tri_offset..o.tri_offset + o.tri_count))
+            .collect();
+        let emitters = emitter::Emitters::new(
+            &self.tris,
+            &placed,
+            |t| emission[self.tris[t as usize].material as usize],
+            params.emitter_samples,
+        );
+        self.report.emitting_triangles = emitters.list.len();
         Ok(Scene {
+            emission,
+            emitters,
             path: path.into(),
             objects: self.objects,
             tris: self.tris,

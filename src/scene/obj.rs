@@ -25,7 +25,11 @@ pub struct MtlData {
     /// `map_Kd -o u v` and `-s u v`: texture coordinates become `offset + scale * uv`.
     pub uv_offset: [f32; 2],
     pub uv_scale: [f32; 2],
-    pub emissive: bool,
+    /// `Ke`: emitted radiance (W/(m²·sr) per channel, one-sided: the side the winding
+    /// normal points to), zero for none.
+    pub emission: [f32; 3],
+    /// The line of its `Ke` (for messages).
+    pub ke_line: Option<usize>,
     /// The file it was defined in and the line of its `Kd` (for messages).
     pub origin: PathBuf,
     pub kd_line: Option<usize>,
@@ -42,7 +46,8 @@ impl MtlData {
             texture: None,
             uv_offset: [0.0; 2],
             uv_scale: [1.0; 2],
-            emissive: false,
+            emission: [0.0; 3],
+            ke_line: None,
             origin,
             kd_line: None,
             used_by: PathBuf::new(),
@@ -429,7 +434,15 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
                     cur.kd = c;
                     cur.kd_line = Some(line);
                 }
-                "Ke" => cur.emissive = c.iter().any(|&x| x != 0.0),
+                "Ke" => {
+                    if c.iter().any(|&x| x < 0.0) {
+                        return Err(err(format!(
+                            "`Ke` {c:?} is an emitted radiance: it must not be negative"
+                        )));
+                    }
+                    cur.emission = c;
+                    cur.ke_line = Some(line);
+                }
                 _ => {}
             }
         } else {
@@ -631,7 +644,17 @@ mod tests {
         let (m, _) = parse_mtl("newmtl a\nKd 0.5\nnewmtl b\nKd 0.1 0.2 0.3\n", d, d).unwrap();
         assert_eq!(m[0].kd, [0.5; 3]);
         assert_eq!(m[1].kd, [0.1, 0.2, 0.3]);
-        for bad in ["Kd", "Kd 0.5 0.5", "Ke 1 2", "Ka x", "Kd spectral a.rfl"] {
+        let (m, _) = parse_mtl("newmtl a\nKe 17 12 4\nnewmtl b\n", d, d).unwrap();
+        assert_eq!((m[0].emission, m[1].emission), ([17.0, 12.0, 4.0], [0.0; 3]));
+        for bad in [
+            "Kd",
+            "Kd 0.5 0.5",
+            "Ke 1 2",
+            "Ka x",
+            "Kd spectral a.rfl",
+            "Ke -1 0 0",
+            "Ke nan",
+        ] {
             let e = parse_mtl(&format!("newmtl a\n{bad}\n"), Path::new("m.mtl"), d).unwrap_err();
             assert!(e.to_string().starts_with("m.mtl:2:"), "{bad}: {e}");
         }

@@ -82,6 +82,35 @@ impl ObjectReach {
                 }
             }
         }
+        // Emitting surfaces: 64 rays into the front of 256 points drawn by power mark the
+        // first side of each object they meet (an emitter in a closed room lights its
+        // inside, as a point light there does).
+        let mut rng = Rng::new(0x0e31_77e2, 0);
+        for _ in 0..if scene.emitters.any() { 256 } else { 0 } {
+            let u = [rng.next_f32(), rng.next_f32(), rng.next_f32()];
+            let Some((y, n)) = scene.emitters.sample_point(&scene.tris, u) else {
+                break;
+            };
+            let (tb, bb) = onb(n);
+            let start = scene.offset(y, n);
+            for k in 0..64u32 {
+                let u = Vec2::new((k as f32 + 0.5) / 64.0, (k as f32 * 0.618_034).fract());
+                let d = cosine_direction(n, tb, bb, u, 0.0);
+                for o in &scene.objects {
+                    let ray = Ray {
+                        o: crate::geom::transform::xform_point(&o.to_object, start),
+                        d: crate::geom::transform::xform_vector(&o.to_object, d),
+                    };
+                    if let Some((t, _, _, _)) =
+                        crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
+                    {
+                        let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
+                        let back = g.dot(ray.d) > 0.0;
+                        lit[self.component[t as usize * 2 + back as usize] as usize] = true;
+                    }
+                }
+            }
+        }
         self.outside
             .iter()
             .zip(&self.component)
@@ -164,10 +193,22 @@ fn components(scene: &Scene, sides: usize) -> UnionFind {
     uf
 }
 
-fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Ray {
-    let l = &scene.lights[light];
+/// A light path's first ray from source `light` ([`Scene::sources`]: the lights, then the
+/// emitting surfaces, from a point drawn by power into the cosine-weighted front).
+fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Option<Ray> {
     let u = Vec2::new(rng.next_f32(), rng.next_f32());
-    match l.kind {
+    if light == scene.lights.len() {
+        let (y, n) = scene
+            .emitters
+            .sample_point(&scene.tris, [rng.next_f32(), rng.next_f32(), rng.next_f32()])?;
+        let (t, b) = onb(n);
+        return Some(Ray {
+            o: scene.offset(y, n),
+            d: cosine_direction(n, t, b, u, 0.0),
+        });
+    }
+    let l = &scene.lights[light];
+    Some(match l.kind {
         LIGHT_DIRECTIONAL => {
             let d = Vec3::from(l.direction);
             let (lo, hi) = scene.bounds;
@@ -188,18 +229,20 @@ fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Ray {
             o: Vec3::from(l.position),
             d: uniform_sphere(u),
         },
-    }
+    })
 }
 
 fn trace_marks(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool> {
     let marks: Vec<AtomicBool> = (0..scene.tris.len() * 2).map(|_| AtomicBool::new(false)).collect();
-    let lights = scene.lights.len() as u32;
+    let sources = scene.sources() as u32;
     let chunk = 1024u32;
     let chunks = paths.div_ceil(chunk);
     (0..chunks).into_par_iter().for_each(|c| {
         let mut rng = Rng::new(seed as u64 ^ 0x5ca1_ab1e, c as u64);
         for p in c * chunk..((c + 1) * chunk).min(paths) {
-            let mut ray = emit(scene, (p % lights) as usize, &mut rng);
+            let Some(mut ray) = emit(scene, (p % sources) as usize, &mut rng) else {
+                continue;
+            };
             for _ in 0..bounces {
                 let Some(hit) = scene.intersect(&ray, f32::INFINITY) else {
                     break;

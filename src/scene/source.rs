@@ -10,6 +10,7 @@ use crate::limits::MAX_MESH_BYTES;
 pub const EMBEDDED_CORNELL: &[(&str, &[u8])] = &[
     ("cornell_box.toml", include_bytes!("../../scenes/cornell_box.toml")),
     ("cornell_parts.toml", include_bytes!("../../scenes/cornell_parts.toml")),
+    ("cornell_area.toml", include_bytes!("../../scenes/cornell_area.toml")),
     (
         "cornell_original_mm.obj",
         include_bytes!("../../scenes/cornell_original_mm.obj"),

@@ -34,16 +34,17 @@ pub fn node_world(scene: &Scene, h: &Hierarchy, j: usize) -> (Vec3, Vec3) {
     )
 }
 
-/// Exact direct irradiance at node `j` (kernel `direct`); `lit[i]` is set when light `i`
-/// contributes.
-pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize, lit: &mut [bool]) -> Vec3 {
+/// Direct irradiance at node `j` (kernel `direct`) and its standard error (emitting
+/// surfaces); `lit[i]` is set when source `i` ([`Scene::sources`]) contributes.
+pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize, lit: &mut [bool]) -> (Vec3, Vec3) {
     let (x, n) = node_world(scene, h, j);
-    let mut e = Vec3::ZERO;
-    scene.direct_each(x, n, |i, v| {
+    let (mut e, mut se) = (Vec3::ZERO, Vec3::ZERO);
+    scene.direct_each_with_error(x, n, |i, v, s| {
         lit[i] = true;
         e += v;
+        se += s;
     });
-    e
+    (e, se)
 }
 
 /// Running sums of a Monte Carlo mean of RGB samples, in double precision; samples not
@@ -143,7 +144,7 @@ fn trace_integral(
             linked = Some(node);
         }
         let e = if exact_direct {
-            scene.direct(s.p, s.n)
+            scene.direct_one(s.p, s.n)
         } else if let Some(node) = linked {
             node.map_or(Vec3::ZERO, |i| unshot[i].xyz())
         } else {
@@ -185,6 +186,8 @@ pub struct CpuBackend<'a> {
     is_active: Vec<bool>,
     active: Vec<u32>,
     mean_direct: Vec3,
+    /// The nodes' direct irradiance's sampling error (emitters), from `direct`.
+    direct_error: Option<super::DirectError>,
     /// Each gathering ray traced once per solve (`links`); `None` where the variant's
     /// reads depend on more than one node or `link_memory` is 0.
     links: Option<Links>,
@@ -217,6 +220,7 @@ impl<'a> CpuBackend<'a> {
             is_active: vec![false; n],
             active: Vec::new(),
             mean_direct: Vec3::ZERO,
+            direct_error: None,
             links: (p.variant == Variant::Approx && p.link_memory > 0)
                 .then(|| Links::new(n, p.rays as usize, link_capacity(scene, p))),
             keep_links: false,
@@ -293,21 +297,34 @@ impl Backend for CpuBackend<'_> {
     fn direct(&mut self) -> Result<Vec<u32>> {
         let (scene, h) = (self.scene, self.h);
         let bar = self.progress.bar(h.nodes.len() as u64, "direct");
-        let nl = scene.lights.len();
-        let lit: Vec<Vec<bool>> = self
+        let nl = scene.sources();
+        let lit: Vec<(Vec<bool>, f64)> = self
             .direct
             .par_iter_mut()
             .enumerate()
             .map(|(j, e)| {
                 let mut lit = vec![false; nl];
-                *e = direct_at_node(scene, h, j, &mut lit).extend(0.0);
+                let (v, se) = direct_at_node(scene, h, j, &mut lit);
+                *e = v.extend(0.0);
                 if j % 1024 == 0 {
                     bar.inc(1024);
                 }
-                lit
+                let lum = |c: Vec3| (c.x as f64 + c.y as f64 + c.z as f64) / 3.0;
+                (lit, if lum(v) > 0.0 { lum(se) / lum(v) } else { -1.0 })
             })
             .collect();
         bar.finish();
+        self.direct_error = scene.emitters.any().then(|| {
+            let rel: Vec<f64> = lit.iter().map(|l| l.1).filter(|&r| r >= 0.0).collect();
+            super::DirectError {
+                samples: scene.emitters.samples() as u32,
+                shadow_rays: h.nodes.len() as u64 * scene.emitters.samples() as u64,
+                lit_nodes: rel.len() as u64,
+                mean_rel_std_err: rel.iter().sum::<f64>() / rel.len().max(1) as f64,
+                max_rel_std_err: rel.iter().copied().fold(0.0, f64::max),
+            }
+        });
+        let lit: Vec<Vec<bool>> = lit.into_iter().map(|l| l.0).collect();
         let counts = (0..nl).map(|i| lit.iter().filter(|l| l[i]).count() as u32).collect();
         let l0 = h.level_range(0);
         let count = l0.len().max(1) as f32;
@@ -495,5 +512,9 @@ impl Backend for CpuBackend<'_> {
 
     fn link_stats(&self) -> Option<LinkStats> {
         self.links.as_ref().map(|l| l.stats.clone())
+    }
+
+    fn direct_error(&self) -> Option<super::DirectError> {
+        self.direct_error.clone()
     }
 }

@@ -89,6 +89,24 @@ pub trait Backend {
     fn link_stats(&self) -> Option<links::LinkStats> {
         None
     }
+    /// The sampling error of the nodes' direct irradiance (emitting surfaces), if any.
+    fn direct_error(&self) -> Option<DirectError> {
+        None
+    }
+}
+
+/// The Monte Carlo error of the direct irradiance at the nodes (emitting surfaces are
+/// sampled; lights are exact): `stats.json` `solve.direct_error`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct DirectError {
+    /// Shadow rays per node to the emitters (`emitter_samples`), and in all.
+    pub samples: u32,
+    pub shadow_rays: u64,
+    /// Nodes with direct light.
+    pub lit_nodes: u64,
+    /// Mean and largest standard error relative to the value (luminance), over those.
+    pub mean_rel_std_err: f64,
+    pub max_rel_std_err: f64,
 }
 
 /// What a fused bounce reports, per gathered level: integrals and refined nodes; and the
@@ -144,12 +162,15 @@ pub struct SolveStats {
     pub unconverged: Option<String>,
     /// Work a scene did not need, and why.
     pub skipped: Vec<String>,
-    /// Nodes lit by each light.
+    /// Nodes lit by each light source (`Scene::sources`: the lights in file order, then the
+    /// emitting surfaces as one entry when there are any).
     pub nodes_lit_per_light: Vec<u32>,
     pub kernel_seconds: Vec<(String, f64)>,
     /// The gathering rays' links: memory, nodes, integrals served (`links`); `None` where
     /// the backend or the variant keeps none.
     pub links: Option<links::LinkStats>,
+    /// The direct irradiance's sampling error at the nodes; `None` without emitters.
+    pub direct_error: Option<DirectError>,
 }
 
 /// The solved hierarchy values.
@@ -221,6 +242,7 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
     let values = backend.values()?;
     stats.kernel_seconds = backend.kernel_times();
     stats.links = backend.link_stats();
+    stats.direct_error = backend.direct_error();
     let linked = stats.links.as_ref().map_or(0, |l| l.integrals_linked);
     stats.rays_traced = stats.rays_gathered.saturating_sub(linked * p.rays as u64);
     Ok(Solution {

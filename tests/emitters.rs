@@ -1,0 +1,267 @@
+//! Emissive surfaces (MTL `Ke`, `ALGORITHM.md` §2.2) against answers known in closed
+//! form: the emitting furnace (a closed box whose walls emit and reflect) and a square
+//! emitter over a floor (Lambert's polygon formula); the reference renderer on the same;
+//! the scenes that have no light at all, and the GPU backend's refusal, as errors.
+
+mod common;
+
+use glam::{DVec3, Vec3};
+use meshrad::analytic::{emitting_box, polygon_irradiance, square_emitter};
+use std::f64::consts::PI;
+
+const RHO: f64 = 0.5;
+const LE: f64 = 2.0;
+
+/// Points on the inside of the cube `[-a, a]³`, facing in: a grid on each face, out to
+/// a tenth of the side from its edges (at an edge the estimate's variance grows as
+/// 1/distance).
+fn box_points(a: f32) -> Vec<(Vec3, Vec3)> {
+    let mut out = Vec::new();
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            for i in 0..4 {
+                for j in 0..4 {
+                    let (u, v) = (-0.9 + 0.6 * i as f32, -0.9 + 0.6 * j as f32);
+                    let mut p = [0.0f32; 3];
+                    p[axis] = sign * a;
+                    p[(axis + 1) % 3] = u * a;
+                    p[(axis + 2) % 3] = v * a;
+                    let mut n = [0.0f32; 3];
+                    n[axis] = -sign;
+                    out.push((Vec3::from(p), Vec3::from(n)));
+                }
+            }
+        }
+    }
+    out
+}
+
+/// `E_d = π L_e` everywhere inside (each estimate within 4 standard errors, which are
+/// reported and small), and the solve's indirect light the series `π L_e Σ ρ^k`: after
+/// 4 bounces and converged, at the output nodes and by the reference renderer.
+#[test]
+fn emitting_box_has_the_closed_form_answer() {
+    let dir = common::tmpdir();
+    let solver = "levels = 4\ncoarsest = 60\nrays = 256\nbounces = 4\nsender_level = 3\nstop_threshold = 0.0\n\
+                  emitter_samples = 1024\n";
+    let path = emitting_box(dir.path(), 1.0, RHO, LE, 1, solver).unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    assert_eq!(scene.lights.len(), 0);
+    assert_eq!(scene.report.emitting_triangles, 12 * 4);
+    let ed = PI * LE;
+    for (x, n) in box_points(1.0) {
+        let (e, se) = scene.direct_with_error(x, n);
+        let (e, se) = (e.x as f64, se.x as f64);
+        assert!(se > 0.0 && se < 0.03 * ed, "at {x}: standard error {se} of {ed}");
+        assert!(
+            (e - ed).abs() < 4.0 * se + 1e-4 * ed,
+            "E_d at {x}: {e} ± {se}, want {ed}"
+        );
+    }
+    // The solve after 4 bounces: every output node, and the mean.
+    let (h, sol) = common::solve_cpu(&scene, &params);
+    let want = ed * (1..=4).map(|k| RHO.powi(k)).sum::<f64>();
+    let out = params.output_level() as usize;
+    let (mut sum, mut count, mut worst) = (0.0, 0.0, 0.0f64);
+    for j in h.level_range(out) {
+        let nd = &h.nodes[j];
+        assert!(common::rel(sol.values.direct[j].x as f64, ed) < 0.05, "node {j} E_d");
+        let v = sol
+            .indirect_on(
+                &h,
+                nd.object as usize,
+                Vec3::from(nd.pos),
+                Vec3::from(nd.normal),
+                out as u32,
+            )
+            .x as f64;
+        worst = worst.max(common::rel(v, want));
+        sum += v;
+        count += 1.0;
+    }
+    println!(
+        "emitting box, 4 bounces: mean {} want {want}, worst {worst}",
+        sum / count
+    );
+    assert!(
+        common::rel(sum / count, want) < 0.01,
+        "mean {} want {want}",
+        sum / count
+    );
+    assert!(worst < 0.05, "worst node off by {worst}");
+    // Converged, and the reference renderer's whole series at a few points.
+    let converged = ed * RHO / (1.0 - RHO);
+    let (scene, params) = common::load(&path, &[("bounces", "100"), ("stop_threshold", "1e-5")]);
+    let (h, sol) = common::solve_cpu(&scene, &params);
+    let mean = h
+        .level_range(out)
+        .map(|j| {
+            let nd = &h.nodes[j];
+            sol.indirect_on(
+                &h,
+                nd.object as usize,
+                Vec3::from(nd.pos),
+                Vec3::from(nd.normal),
+                out as u32,
+            )
+            .x as f64
+        })
+        .sum::<f64>()
+        / h.level_range(out).len() as f64;
+    assert!(
+        common::rel(mean, converged) < 0.01,
+        "converged mean {mean} want {converged}"
+    );
+    let opts = meshrad::reference::ReferenceOptions {
+        samples: 4096,
+        ..Default::default()
+    };
+    for (i, (x, n)) in box_points(1.0).into_iter().step_by(17).enumerate() {
+        let r = meshrad::reference::indirect(&scene, x, n, &opts, i as u64);
+        assert!(
+            (r.mean.x - converged).abs() < 4.0 * r.std_err.x + 0.01 * converged,
+            "reference at {x}: {} ± {}, want {converged}",
+            r.mean.x,
+            r.std_err.x
+        );
+    }
+}
+
+/// A square emitter `[-a, a]²` at height `h` facing a floor: the estimate against
+/// Lambert's polygon formula on the axis and off it, nothing behind the emitter (it emits
+/// from its front only), and the emitter seen by the camera with its own radiance.
+#[test]
+fn square_emitter_matches_lambert() {
+    let dir = common::tmpdir();
+    let (a, h) = (0.5f64, 1.0f64);
+    let solver = "levels = 3\ncoarsest = 40\nsender_level = 2\nrays = 64\nbounces = 1\nemitter_samples = 4096\n";
+    let path = square_emitter(dir.path(), 4.0, a, h, LE, solver).unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    let poly = [
+        DVec3::new(a, h, a),
+        DVec3::new(-a, h, a),
+        DVec3::new(-a, h, -a),
+        DVec3::new(a, h, -a),
+    ];
+    for d in [0.0f64, 0.3, 0.8, 1.7, 3.0] {
+        let x = DVec3::new(d, 0.0, 0.4 * d);
+        let want = polygon_irradiance(x, DVec3::Y, &poly, LE);
+        let (e, se) = scene.direct_with_error(x.as_vec3(), Vec3::Y);
+        let (e, se) = (e.x as f64, se.x as f64);
+        println!("square emitter at {x}: {e} ± {se}, Lambert {want}");
+        assert!(
+            (e - want).abs() < 4.0 * se + 2e-3 * want,
+            "at {x}: {e} ± {se}, want {want}"
+        );
+        assert!(se < 0.02 * want, "at {x}: standard error {se} of {want}");
+    }
+    // On the axis the square's four corner rectangles give `4 L c atan(c)`,
+    // `c = a / √(a² + h²)`: a check of the helper itself.
+    let c = a / (a * a + h * h).sqrt();
+    let on_axis = 4.0 * LE * c * c.atan();
+    let helper = polygon_irradiance(DVec3::ZERO, DVec3::Y, &poly, LE);
+    assert!(common::rel(helper, on_axis) < 1e-9, "{helper} vs {on_axis}");
+    // Behind the emitter (above it, facing down): its back emits nothing.
+    let (e, _) = scene.direct_with_error(Vec3::new(0.0, 2.0, 0.0), -Vec3::Y);
+    assert_eq!(e, Vec3::ZERO);
+    // The camera looks down at the floor past the emitter's edge: the emitter's front is
+    // not visible from above, the floor under it is lit.
+    let run = meshrad::solve(&scene, &params, None, &meshrad::progress::Progress::hidden()).unwrap();
+    assert!(run.solution.values.direct.iter().any(|v| v.x > 0.0));
+    let img = meshrad::output::image::render(
+        &scene,
+        &run.hierarchy,
+        &run.solution,
+        &params,
+        &meshrad::progress::Progress::hidden(),
+    );
+    assert!(img.direct.iter().all(|v| v.x.is_finite() && v.x >= 0.0));
+}
+
+/// The emitter seen from below shows its radiance `L_e` in the direct image (a black
+/// lamp reflects nothing, so that is all it shows).
+#[test]
+fn emitters_show_their_radiance() {
+    let dir = common::tmpdir();
+    let solver = "levels = 3\ncoarsest = 40\nsender_level = 2\nrays = 64\nbounces = 1\n";
+    let path = square_emitter(dir.path(), 4.0, 2.0, 1.0, LE, solver).unwrap();
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("position = [0.0, 0.5, 4]", "position = [0.0, 0.1, 0.0]")
+        .replace(
+            "target = [0.0, 0.0, 0.0]",
+            "target = [0.0, 1.0, 0.0]\nup = [0.0, 0.0, 1.0]",
+        );
+    assert!(text.contains("position = [0.0, 0.1, 0.0]"), "{text}");
+    std::fs::write(&path, text).unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    let run = meshrad::solve(&scene, &params, None, &meshrad::progress::Progress::hidden()).unwrap();
+    let img = meshrad::output::image::render(
+        &scene,
+        &run.hierarchy,
+        &run.solution,
+        &params,
+        &meshrad::progress::Progress::hidden(),
+    );
+    let centre = img.direct[(img.height / 2 * img.width + img.width / 2) as usize];
+    assert!((centre.x as f64 - LE).abs() < 1e-6, "{centre}");
+}
+
+/// A scene with no light and no emitting surface is an error that says so; one whose
+/// only emission an object turns off too.
+#[test]
+fn no_light_at_all_is_an_error() {
+    let dir = common::tmpdir();
+    let path = square_emitter(
+        dir.path(),
+        4.0,
+        0.5,
+        1.0,
+        LE,
+        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("mesh = \"scene.obj\"", "mesh = \"scene.obj\"\nemission = false"),
+    )
+    .unwrap();
+    let e = meshrad::Scene::load(&path, &[]).unwrap_err().to_string();
+    assert!(e.contains("no [[light]] and no emitting surface"), "{e}");
+    assert!(e.contains("scene.toml"), "{e}");
+}
+
+/// The GPU backend does not run emitting surfaces yet: a clear error, not a dark image.
+#[test]
+fn gpu_refuses_emitters_clearly() {
+    let dir = common::tmpdir();
+    let path = square_emitter(
+        dir.path(),
+        4.0,
+        0.5,
+        1.0,
+        LE,
+        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
+    )
+    .unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    let ctx = std::sync::Arc::new(
+        meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
+            validation: true,
+            device: None,
+        })
+        .expect("a Vulkan device (lavapipe in CI)"),
+    );
+    let e = match meshrad::solve(
+        &scene,
+        &params,
+        Some(ctx.clone()),
+        &meshrad::progress::Progress::hidden(),
+    ) {
+        Ok(_) => panic!("the GPU backend ran a scene with emitters"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("emitting triangles") && e.contains("--backend cpu"), "{e}");
+    assert_eq!(ctx.validation_errors(), 0);
+}
