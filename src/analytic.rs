@@ -250,3 +250,29 @@ pub fn polygon_irradiance(x: glam::DVec3, n: glam::DVec3, poly: &[glam::DVec3], 
     }
     0.5 * le * s.abs()
 }
+
+/// A floor `[-s, s]² × {0}` (normal +y, albedo 0.5) under a constant `[sky]` of radiance
+/// `l`; with `wall`, a wall `x = 1, y ∈ [0, 2]` across the floor facing −x (albedo 0.5)
+/// that blocks part of the sky and sends its bounce light to the floor. Without it the
+/// floor's upper side sees the whole sky: `E_d = π l` everywhere on it.
+pub fn sky_plane(dir: &Path, s: f64, wall: bool, l: f64, solver: &str) -> Result<PathBuf> {
+    let mut obj = format!(
+        "mtllib sky.mtl\nusemtl grey\nv {s} 0 {s}\nv {s} 0 -{s}\nv -{s} 0 -{s}\nv -{s} 0 {s}\nf 1 2 3\nf 1 3 4\n"
+    );
+    if wall {
+        obj.push_str(&format!(
+            "v 1 0 -{s}\nv 1 0 {s}\nv 1 2 {s}\nv 1 2 -{s}\nf 5 6 7\nf 5 7 8\n"
+        ));
+    }
+    write(dir, "sky.obj", &obj)?;
+    write(dir, "sky.mtl", "newmtl grey\nKd 0.5 0.5 0.5\n")?;
+    write(
+        dir,
+        "sky.toml",
+        &format!(
+            "[[object]]\nmesh = \"sky.obj\"\n\n[sky]\nradiance = [{l}, {l}, {l}]\n\n[camera]\n\
+             position = [-3.0, 2.0, 0.0]\ntarget = [1.0, 0.5, 0.0]\nfov = 60.0\nwidth = 32\nheight = 32\n\n\
+             [solver]\n{solver}\n"
+        ),
+    )
+}

@@ -1,12 +1,14 @@
-//! Emissive surfaces (MTL `Ke`, `ALGORITHM.md` §2.2) against answers known in closed
-//! form: the emitting furnace (a closed box whose walls emit and reflect) and a square
-//! emitter over a floor (Lambert's polygon formula); the reference renderer on the same;
-//! the scenes that have no light at all, and the GPU backend's refusal, as errors.
+//! Emissive surfaces (MTL `Ke`, `ALGORITHM.md` §2.2) and the constant sky (§2.3) against
+//! answers known in closed form: the emitting furnace (a closed box whose walls emit and
+//! reflect), a square emitter over a floor (Lambert's polygon formula), a floor under the
+//! sky (`E_d = π L`); the reference renderer on the same, and on a floor with a wall under
+//! the sky; the scenes that have no light at all, and the GPU backend's refusal, as
+//! errors.
 
 mod common;
 
 use glam::{DVec3, Vec3};
-use meshrad::analytic::{emitting_box, polygon_irradiance, square_emitter};
+use meshrad::analytic::{emitting_box, polygon_irradiance, sky_plane, square_emitter};
 use std::f64::consts::PI;
 
 const RHO: f64 = 0.5;
@@ -228,8 +230,29 @@ fn no_light_at_all_is_an_error() {
     )
     .unwrap();
     let e = meshrad::Scene::load(&path, &[]).unwrap_err().to_string();
-    assert!(e.contains("no [[light]] and no emitting surface"), "{e}");
+    assert!(
+        e.contains("no [[light]], no emitting surface (MTL Ke) and no [sky]"),
+        "{e}"
+    );
     assert!(e.contains("scene.toml"), "{e}");
+    // A sky of negative radiance, and one with keys it does not have yet.
+    let path = sky_plane(
+        dir.path(),
+        4.0,
+        false,
+        1.0,
+        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
+    )
+    .unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    for (bad, want) in [
+        ("radiance = [1.0, -1.0, 1.0]", "sky.radiance"),
+        ("radiance = [1.0, 1.0, 1.0]\nenvmap = \"sky.exr\"", "envmap"),
+    ] {
+        std::fs::write(&path, text.replace("radiance = [1, 1, 1]", bad)).unwrap();
+        let e = meshrad::Scene::load(&path, &[]).unwrap_err().to_string();
+        assert!(e.contains(want) && e.contains("sky.toml"), "{bad}: {e}");
+    }
 }
 
 /// The GPU backend does not run emitting surfaces yet: a clear error, not a dark image.
@@ -263,5 +286,75 @@ fn gpu_refuses_emitters_clearly() {
         Err(e) => e.to_string(),
     };
     assert!(e.contains("emitting triangles") && e.contains("--backend cpu"), "{e}");
+    let path = sky_plane(
+        dir.path(),
+        4.0,
+        false,
+        1.0,
+        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
+    )
+    .unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    let e = match meshrad::solve(
+        &scene,
+        &params,
+        Some(ctx.clone()),
+        &meshrad::progress::Progress::hidden(),
+    ) {
+        Ok(_) => panic!("the GPU backend ran a scene with a sky"),
+        Err(e) => e.to_string(),
+    };
+    assert!(e.contains("[sky]") && e.contains("--backend cpu"), "{e}");
     assert_eq!(ctx.validation_errors(), 0);
+}
+
+/// A floor under a constant sky: `E_d = π L` on either side (every sample escapes: no
+/// error); with a wall beside it, the wall's bounce light on the floor
+/// against the reference renderer's.
+#[test]
+fn floor_under_the_sky() {
+    let dir = common::tmpdir();
+    let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 256\n";
+    let path = sky_plane(dir.path(), 4.0, false, LE, solver).unwrap();
+    let (scene, _) = common::load(&path, &[]);
+    for x in [Vec3::ZERO, Vec3::new(2.5, 0.0, -3.0)] {
+        let (e, se) = scene.direct_with_error(x, Vec3::Y);
+        assert!(common::rel(e.x as f64, PI * LE) < 1e-6, "{e}");
+        assert_eq!(se, Vec3::ZERO);
+        // The sky is a whole sphere (Mitsuba's `constant`): the underside sees it too.
+        assert!(common::rel(scene.direct(x, -Vec3::Y).x as f64, PI * LE) < 1e-6);
+    }
+    // The wall: the floor next to it gets bounce light; solver (probe, final gather) and
+    // reference agree within 3 % and 3 of their combined standard errors.
+    let path = sky_plane(dir.path(), 4.0, true, LE, solver).unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    let (h, sol) = common::solve_cpu(&scene, &params);
+    let probes: Vec<meshrad::output::probe::Probe> = [0.2f32, 0.5, 1.0, 2.0]
+        .iter()
+        .map(|&d| meshrad::output::probe::Probe {
+            p: Vec3::new(1.0 - d, 0.0, 0.3),
+            n: Vec3::Y,
+        })
+        .collect();
+    let got = meshrad::output::probe::evaluate(&scene, &h, &sol, &probes, &params);
+    let opts = meshrad::reference::ReferenceOptions {
+        samples: 16384,
+        ..Default::default()
+    };
+    for (i, (q, v)) in probes.iter().zip(&got).enumerate() {
+        let r = meshrad::reference::indirect(&scene, q.p, q.n, &opts, i as u64);
+        let (e, want) = (v.indirect.mean.x as f64, r.mean.x);
+        let se = r.std_err.x.hypot(v.indirect.std_err.x as f64);
+        println!(
+            "floor at {}: solver {e} ± {}, reference {want} ± {}",
+            q.p, v.indirect.std_err.x, r.std_err.x
+        );
+        assert!(
+            want > 0.0 && (e - want).abs() < 0.03 * want + 3.0 * se,
+            "at {}: {e} vs {want} ± {se}",
+            q.p
+        );
+        // The direct light: the wall hides part of the sky.
+        assert!(v.direct.x < (PI * LE) as f32 && v.direct.x > 0.5 * (PI * LE) as f32);
+    }
 }

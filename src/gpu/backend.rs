@@ -134,13 +134,11 @@ impl GpuResident {
     /// them on the device).
     pub fn new(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<GpuResident> {
         if let Some(why) = super::unsupported(scene) {
+            let key = if scene.emitters.any() { "object" } else { "sky" };
             return Err(crate::error::Error::SceneValue {
                 path: scene.path.clone(),
-                key: "object".into(),
-                message: format!(
-                    "{why}; run it with --backend cpu, or set `emission = false` on the object to make them \
-                     plain diffuse surfaces"
-                ),
+                key: key.into(),
+                message: format!("{why}; run it with --backend cpu"),
             });
         }
         let t = Instant::now();

@@ -62,7 +62,8 @@ pub fn render_with(
                         let d = k * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s);
                         (d, k * indirect(&s, y * w + x))
                     }
-                    None => (Vec3::ZERO, Vec3::ZERO),
+                    // A ray that leaves the scene sees the sky (`[sky]`; black without).
+                    None => (scene.sky_radiance(), Vec3::ZERO),
                 };
                 d.push(dv);
                 i.push(iv);

@@ -15,8 +15,17 @@ pub struct SceneFile {
     #[serde(default)]
     pub light: Vec<toml::Table>,
     pub camera: Option<CameraEntry>,
+    pub sky: Option<SkyEntry>,
     #[serde(default)]
     pub solver: SolverParams,
+}
+
+/// `[sky]`: light from every direction that leaves the scene.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SkyEntry {
+    /// Constant radiance (W/(m²·sr), RGB), as Mitsuba's `constant` emitter.
+    pub radiance: [f32; 3],
 }
 
 /// `[[object]]`: a mesh with an optional rigid transform.

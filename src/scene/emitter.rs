@@ -60,6 +60,11 @@ fn luminance(c: Vec3) -> f64 {
     0.2126 * c.x as f64 + 0.7152 * c.y as f64 + 0.0722 * c.z as f64
 }
 
+/// Point `i` of the 2-D Halton set in bases 2 and 3.
+pub fn halton2(i: u64) -> [f64; 2] {
+    [radical_inverse(i, 2), radical_inverse(i, 3)]
+}
+
 fn radical_inverse(mut i: u64, base: u64) -> f64 {
     let (mut f, mut r) = (1.0f64, 0.0f64);
     while i > 0 {

@@ -85,6 +85,8 @@ pub struct Scene {
     pub emission: Vec<Vec3>,
     /// The emitting triangles and how they are sampled.
     pub emitters: emitter::Emitters,
+    /// `[sky]`: constant radiance from every direction that leaves the scene.
+    pub sky: Option<Vec3>,
     pub lights: Vec<GpuLight>,
     /// Each light's name (`[[light]] name`, default `light<i>`), unique.
     pub light_names: Vec<String>,
@@ -300,12 +302,30 @@ impl Scene {
         for (i, entry) in file.object.iter().enumerate() {
             b.add_object(&source, path, i, entry)?;
         }
+        let sky = file
+            .sky
+            .as_ref()
+            .map(|s| {
+                let l = Vec3::from(s.radiance);
+                if !l.is_finite() || l.min_element() < 0.0 {
+                    return Err(Error::SceneValue {
+                        path: path.into(),
+                        key: "sky.radiance".into(),
+                        message: format!("{:?} must be finite and non-negative", s.radiance),
+                    });
+                }
+                Ok(l)
+            })
+            .transpose()?
+            .filter(|l| l.max_element() > 0.0);
         let mut scene = b.finish(path, &source, lights, file.camera.as_ref(), &file.solver)?;
-        if scene.lights.is_empty() && !scene.emitters.any() {
+        scene.sky = sky;
+        if scene.lights.is_empty() && !scene.emitters.any() && scene.sky.is_none() {
             return Err(Error::SceneValue {
                 path: path.into(),
                 key: "light".into(),
-                message: "the scene has no [[light]] and no emitting surface (MTL Ke): everything would be black"
+                message: "the scene has no [[light]], no emitting surface (MTL Ke) and no [sky]: everything would be \
+                          black"
                     .into(),
             });
         }
@@ -469,9 +489,10 @@ impl Scene {
         e
     }
 
-    /// Light sources: the lights, then the emitting surfaces as one more if there are any.
+    /// Light sources: the lights, then the emitting surfaces as one more if there are any,
+    /// then the sky if there is one.
     pub fn sources(&self) -> usize {
-        self.lights.len() + self.emitters.any() as usize
+        self.lights.len() + self.emitters.any() as usize + self.sky.is_some() as usize
     }
 
     /// Calls `f(source index, irradiance)` for each source that reaches `(x, n)`
@@ -497,28 +518,65 @@ impl Scene {
                 }
             }
         }
-        if !self.emitters.any() {
+        if !self.emitters.any() && self.sky.is_none() {
             return;
         }
-        // The point's own shift of the sample set: a function of where it is.
+        // The point's own shift of the sample sets: a function of where it is.
         let bits = |v: Vec3| (v.x.to_bits() as u64) << 32 ^ (v.y.to_bits() as u64) << 16 ^ v.z.to_bits() as u64;
         let seed = emitter::mix64(bits(x)) ^ bits(n);
-        let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-        self.emitters
-            .for_each_sample(&self.tris, emitter::Receiver { x, n, o }, seed, samples, |s| {
-                if let Some(s) = s {
-                    let ray = Ray { o, d: s.to_point };
-                    if !self.occluded(&ray, crate::constants::SHADOW_TMAX) {
-                        let v = s.value.as_dvec3();
-                        sum += v;
-                        sum2 += v * v;
+        let count = samples.min(self.emitters.samples());
+        if self.emitters.any() {
+            let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+            self.emitters
+                .for_each_sample(&self.tris, emitter::Receiver { x, n, o }, seed, samples, |s| {
+                    if let Some(s) = s {
+                        let ray = Ray { o, d: s.to_point };
+                        if !self.occluded(&ray, crate::constants::SHADOW_TMAX) {
+                            let v = s.value.as_dvec3();
+                            sum += v;
+                            sum2 += v * v;
+                        }
                     }
-                }
-            });
-        let (mean, err) = emitter::mean_and_error(sum, sum2, samples.min(self.emitters.samples()));
-        if mean.max_element() > 0.0 {
-            f(self.lights.len(), mean, err);
+                });
+            let (mean, err) = emitter::mean_and_error(sum, sum2, count);
+            if mean.max_element() > 0.0 {
+                f(self.lights.len(), mean, err);
+            }
         }
+        if let Some(l) = self.sky {
+            // Cosine-weighted directions (2-D Halton, shifted per point): each one that
+            // leaves the scene adds π L_sky (1/pdf = π/cos), a Bernoulli mean.
+            let (t, b) = crate::geom::sampling::onb(n);
+            let s = emitter::mix64(seed ^ 0x5c1e_5c1e);
+            let shift = [(s >> 11) as f64, (emitter::mix64(s ^ 0x9e37) >> 11) as f64].map(|v| v / (1u64 << 53) as f64);
+            let mut open = 0usize;
+            for k in 0..count {
+                let h = emitter::halton2(k as u64 + 1);
+                let u = Vec2::new((h[0] + shift[0]).fract() as f32, (h[1] + shift[1]).fract() as f32);
+                let d = crate::geom::sampling::cosine_direction(n, t, b, u, 0.0);
+                open += !self.occluded(&Ray { o, d }, f32::INFINITY) as usize;
+            }
+            let nf = count.max(1) as f32;
+            let p = open as f32 / nf;
+            let se = if count > 1 {
+                (p * (1.0 - p) / (nf - 1.0)).sqrt()
+            } else {
+                0.0
+            };
+            if open > 0 {
+                let pi = std::f32::consts::PI;
+                f(
+                    self.lights.len() + self.emitters.any() as usize,
+                    l * pi * p,
+                    l * pi * se,
+                );
+            }
+        }
+    }
+
+    /// The sky's radiance seen along a ray that leaves the scene (zero without a sky).
+    pub fn sky_radiance(&self) -> Vec3 {
+        self.sky.unwrap_or(Vec3::ZERO)
     }
 
     /// The radiance a surface point sends toward the ray that found it by emitting: its
@@ -1009,6 +1067,7 @@ impl Builder {
         );
         self.report.emitting_triangles = emitters.list.len();
         Ok(Scene {
+            sky: None,
             emission,
             emitters,
             path: path.into(),

@@ -193,10 +193,28 @@ fn components(scene: &Scene, sides: usize) -> UnionFind {
     uf
 }
 
+/// A ray travelling along `d` from a disk outside the scene's bounds that covers them.
+fn from_outside(scene: &Scene, d: Vec3, u: Vec2) -> Ray {
+    let (lo, hi) = scene.bounds;
+    let c = (lo + hi) * 0.5 - d * scene.scale;
+    let (t, b) = onb(d);
+    let r = scene.scale * 0.5 * u.x.sqrt();
+    let phi = u.y * std::f32::consts::TAU;
+    Ray {
+        o: c + (t * phi.cos() + b * phi.sin()) * r,
+        d,
+    }
+}
+
 /// A light path's first ray from source `light` ([`Scene::sources`]: the lights, then the
-/// emitting surfaces, from a point drawn by power into the cosine-weighted front).
+/// emitting surfaces, from a point drawn by power into the cosine-weighted front, then the
+/// sky, as a directional light from a uniformly drawn direction).
 fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Option<Ray> {
     let u = Vec2::new(rng.next_f32(), rng.next_f32());
+    if light >= scene.lights.len() + scene.emitters.any() as usize {
+        let d = -uniform_sphere(Vec2::new(rng.next_f32(), rng.next_f32()));
+        return Some(from_outside(scene, d, u));
+    }
     if light == scene.lights.len() {
         let (y, n) = scene
             .emitters
@@ -209,18 +227,7 @@ fn emit(scene: &Scene, light: usize, rng: &mut Rng) -> Option<Ray> {
     }
     let l = &scene.lights[light];
     Some(match l.kind {
-        LIGHT_DIRECTIONAL => {
-            let d = Vec3::from(l.direction);
-            let (lo, hi) = scene.bounds;
-            let c = (lo + hi) * 0.5 - d * scene.scale;
-            let (t, b) = onb(d);
-            let r = scene.scale * 0.5 * u.x.sqrt();
-            let phi = u.y * std::f32::consts::TAU;
-            Ray {
-                o: c + (t * phi.cos() + b * phi.sin()) * r,
-                d,
-            }
-        }
+        LIGHT_DIRECTIONAL => from_outside(scene, Vec3::from(l.direction), u),
         LIGHT_SPOT => Ray {
             o: Vec3::from(l.position),
             d: uniform_cone(Vec3::from(l.direction), l.cutoff.cos(), u),
