@@ -329,6 +329,15 @@ fn floor_under_the_sky() {
     let path = sky_plane(dir.path(), 4.0, true, LE, solver).unwrap();
     let (scene, params) = common::load(&path, &[]);
     let (h, sol) = common::solve_cpu(&scene, &params);
+    let de = sol
+        .stats
+        .direct_error
+        .as_ref()
+        .expect("the sky's sampling error is reported");
+    assert!(
+        de.lit_nodes > 0 && de.mean_rel_std_err > 0.0 && de.shadow_rays > 0,
+        "{de:?}"
+    );
     let probes: Vec<meshrad::output::probe::Probe> = [0.2f32, 0.5, 1.0, 2.0]
         .iter()
         .map(|&d| meshrad::output::probe::Probe {

@@ -314,11 +314,13 @@ impl Backend for CpuBackend<'_> {
             })
             .collect();
         bar.finish();
-        self.direct_error = scene.emitters.any().then(|| {
+        self.direct_error = (scene.emitters.any() || scene.sky.is_some()).then(|| {
             let rel: Vec<f64> = lit.iter().map(|l| l.1).filter(|&r| r >= 0.0).collect();
             super::DirectError {
                 samples: scene.emitters.samples() as u32,
-                shadow_rays: h.nodes.len() as u64 * scene.emitters.samples() as u64,
+                shadow_rays: h.nodes.len() as u64
+                    * scene.emitters.samples() as u64
+                    * (scene.emitters.any() as u64 + scene.sky.is_some() as u64),
                 lit_nodes: rel.len() as u64,
                 mean_rel_std_err: rel.iter().sum::<f64>() / rel.len().max(1) as f64,
                 max_rel_std_err: rel.iter().copied().fold(0.0, f64::max),

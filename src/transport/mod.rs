@@ -95,11 +95,11 @@ pub trait Backend {
     }
 }
 
-/// The Monte Carlo error of the direct irradiance at the nodes (emitting surfaces are
-/// sampled; lights are exact): `stats.json` `solve.direct_error`.
+/// The Monte Carlo error of the direct irradiance at the nodes (emitting surfaces and the
+/// sky are sampled; lights are exact): `stats.json` `solve.direct_error`.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct DirectError {
-    /// Shadow rays per node to the emitters (`emitter_samples`), and in all.
+    /// Rays per node to the emitters and to the sky (`emitter_samples` each), and in all.
     pub samples: u32,
     pub shadow_rays: u64,
     /// Nodes with direct light.
