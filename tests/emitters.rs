@@ -13,6 +13,29 @@ use std::f64::consts::PI;
 
 const RHO: f64 = 0.5;
 const LE: f64 = 2.0;
+/// Solver settings for scenes that are only loaded or refused.
+const TINY: &str = "levels = 3\ncoarsest = 40\nsender_level = 2\n";
+
+/// A small square emitter over a floor ([`square_emitter`]).
+fn small_emitter(dir: &std::path::Path) -> std::path::PathBuf {
+    square_emitter(dir, 4.0, 0.5, 1.0, LE, TINY).unwrap()
+}
+
+/// A CPU solve and the camera's images.
+fn solve_and_render(
+    scene: &meshrad::Scene,
+    params: &meshrad::SolverParams,
+) -> (meshrad::Run, meshrad::output::image::Images) {
+    let hidden = meshrad::progress::Progress::hidden();
+    let run = meshrad::solve(scene, params, None, &hidden).unwrap();
+    let img = meshrad::output::image::render(scene, &run.hierarchy, &run.solution, params, &hidden);
+    (run, img)
+}
+
+/// A floor under a sky of radiance 1 ([`sky_plane`]).
+fn small_sky(dir: &std::path::Path) -> std::path::PathBuf {
+    sky_plane(dir, 4.0, false, 1.0, TINY).unwrap()
+}
 
 /// Points on the inside of the cube `[-a, a]³`, facing in: a grid on each face, out to
 /// a tenth of the side from its edges (at an edge the estimate's variance grows as
@@ -168,15 +191,8 @@ fn square_emitter_matches_lambert() {
     assert_eq!(e, Vec3::ZERO);
     // The camera looks down at the floor past the emitter's edge: the emitter's front is
     // not visible from above, the floor under it is lit.
-    let run = meshrad::solve(&scene, &params, None, &meshrad::progress::Progress::hidden()).unwrap();
+    let (run, img) = solve_and_render(&scene, &params);
     assert!(run.solution.values.direct.iter().any(|v| v.x > 0.0));
-    let img = meshrad::output::image::render(
-        &scene,
-        &run.hierarchy,
-        &run.solution,
-        &params,
-        &meshrad::progress::Progress::hidden(),
-    );
     assert!(img.direct.iter().all(|v| v.x.is_finite() && v.x >= 0.0));
 }
 
@@ -197,14 +213,7 @@ fn emitters_show_their_radiance() {
     assert!(text.contains("position = [0.0, 0.1, 0.0]"), "{text}");
     std::fs::write(&path, text).unwrap();
     let (scene, params) = common::load(&path, &[]);
-    let run = meshrad::solve(&scene, &params, None, &meshrad::progress::Progress::hidden()).unwrap();
-    let img = meshrad::output::image::render(
-        &scene,
-        &run.hierarchy,
-        &run.solution,
-        &params,
-        &meshrad::progress::Progress::hidden(),
-    );
+    let (_, img) = solve_and_render(&scene, &params);
     let centre = img.direct[(img.height / 2 * img.width + img.width / 2) as usize];
     assert!((centre.x as f64 - LE).abs() < 1e-6, "{centre}");
 }
@@ -214,15 +223,7 @@ fn emitters_show_their_radiance() {
 #[test]
 fn no_light_at_all_is_an_error() {
     let dir = common::tmpdir();
-    let path = square_emitter(
-        dir.path(),
-        4.0,
-        0.5,
-        1.0,
-        LE,
-        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
-    )
-    .unwrap();
+    let path = small_emitter(dir.path());
     let text = std::fs::read_to_string(&path).unwrap();
     std::fs::write(
         &path,
@@ -236,14 +237,7 @@ fn no_light_at_all_is_an_error() {
     );
     assert!(e.contains("scene.toml"), "{e}");
     // A sky of negative radiance, and one with keys it does not have yet.
-    let path = sky_plane(
-        dir.path(),
-        4.0,
-        false,
-        1.0,
-        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
-    )
-    .unwrap();
+    let path = small_sky(dir.path());
     let text = std::fs::read_to_string(&path).unwrap();
     for (bad, want) in [
         ("radiance = [1.0, -1.0, 1.0]", "sky.radiance"),
@@ -259,16 +253,7 @@ fn no_light_at_all_is_an_error() {
 #[test]
 fn gpu_refuses_emitters_clearly() {
     let dir = common::tmpdir();
-    let path = square_emitter(
-        dir.path(),
-        4.0,
-        0.5,
-        1.0,
-        LE,
-        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
-    )
-    .unwrap();
-    let (scene, params) = common::load(&path, &[]);
+    let path = small_emitter(dir.path());
     let ctx = std::sync::Arc::new(
         meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
             validation: true,
@@ -276,34 +261,21 @@ fn gpu_refuses_emitters_clearly() {
         })
         .expect("a Vulkan device (lavapipe in CI)"),
     );
-    let e = match meshrad::solve(
-        &scene,
-        &params,
-        Some(ctx.clone()),
-        &meshrad::progress::Progress::hidden(),
-    ) {
-        Ok(_) => panic!("the GPU backend ran a scene with emitters"),
-        Err(e) => e.to_string(),
+    let refusal = |path: &std::path::Path| {
+        let (scene, params) = common::load(path, &[]);
+        match meshrad::solve(
+            &scene,
+            &params,
+            Some(ctx.clone()),
+            &meshrad::progress::Progress::hidden(),
+        ) {
+            Ok(_) => panic!("the GPU backend ran {}", path.display()),
+            Err(e) => e.to_string(),
+        }
     };
+    let e = refusal(&path);
     assert!(e.contains("emitting triangles") && e.contains("--backend cpu"), "{e}");
-    let path = sky_plane(
-        dir.path(),
-        4.0,
-        false,
-        1.0,
-        "levels = 3\ncoarsest = 40\nsender_level = 2\n",
-    )
-    .unwrap();
-    let (scene, params) = common::load(&path, &[]);
-    let e = match meshrad::solve(
-        &scene,
-        &params,
-        Some(ctx.clone()),
-        &meshrad::progress::Progress::hidden(),
-    ) {
-        Ok(_) => panic!("the GPU backend ran a scene with a sky"),
-        Err(e) => e.to_string(),
-    };
+    let e = refusal(&small_sky(dir.path()));
     assert!(e.contains("[sky]") && e.contains("--backend cpu"), "{e}");
     assert_eq!(ctx.validation_errors(), 0);
 }
