@@ -297,30 +297,29 @@ impl SceneSummary {
     }
 }
 
-/// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
-/// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
-/// backend is faster, so `auto` takes the CPU there, and says why on stderr.
 /// [`gpu_context`] for `scene`: under `auto`, a scene the GPU backend cannot run yet
-/// (emitting surfaces) runs on the CPU, with a note; asked for by `--backend gpu`, the GPU
-/// backend's own error says why.
+/// (emitting surfaces, a sky) runs on the CPU, with a note; asked for by `--backend gpu`,
+/// the GPU backend's own error says why.
 pub fn scene_context(
     scene: &crate::scene::Scene,
     choice: BackendChoice,
     device: Option<&str>,
     quiet: bool,
 ) -> Result<Option<Arc<Context>>> {
-    if choice == BackendChoice::Auto && device.is_none() && crate::gpu::unsupported(scene).is_some() {
-        if !quiet {
-            eprintln!(
-                "note: auto backend: {}; using the CPU backend",
-                crate::gpu::unsupported(scene).unwrap_or_default()
-            );
+    if choice == BackendChoice::Auto && device.is_none() {
+        if let Some(why) = crate::gpu::unsupported(scene) {
+            if !quiet {
+                eprintln!("note: auto backend: {why}; using the CPU backend");
+            }
+            return Ok(None);
         }
-        return Ok(None);
     }
     gpu_context(choice, device, quiet)
 }
 
+/// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
+/// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
+/// backend is faster, so `auto` takes the CPU there, and says why on stderr.
 pub fn gpu_context(choice: BackendChoice, device: Option<&str>, quiet: bool) -> Result<Option<Arc<Context>>> {
     let opts = ContextOptions::from_env(device.map(String::from));
     match choice {

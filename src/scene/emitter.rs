@@ -60,6 +60,13 @@ fn luminance(c: Vec3) -> f64 {
     0.2126 * c.x as f64 + 0.7152 * c.y as f64 + 0.0722 * c.z as f64
 }
 
+/// A receiving point's Cranley–Patterson shift of a sample set: three numbers in [0, 1)
+/// from its seed.
+pub fn shift(seed: u64) -> [f64; 3] {
+    let s = mix64(seed);
+    [s, mix64(s ^ 0x9e37), mix64(s ^ 0x79b9)].map(|v| (v >> 11) as f64 / (1u64 << 53) as f64)
+}
+
 /// Point `i` of the 2-D Halton set in bases 2 and 3.
 pub fn halton2(i: u64) -> [f64; 2] {
     [radical_inverse(i, 2), radical_inverse(i, 3)]
@@ -192,8 +199,7 @@ impl Emitters {
         mut f: impl FnMut(Option<EmitterSample>),
     ) {
         let Receiver { x, n, o } = at;
-        let s = mix64(seed);
-        let shift = [s, mix64(s ^ 0x9e37), mix64(s ^ 0x79b9)].map(|v| (v >> 11) as f64 / (1u64 << 53) as f64);
+        let shift = shift(seed);
         let xd = x.as_dvec3();
         let corners = |k: usize| {
             let e = &self.list[k];

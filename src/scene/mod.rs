@@ -547,8 +547,7 @@ impl Scene {
             // Cosine-weighted directions (2-D Halton, shifted per point): each one that
             // leaves the scene adds π L_sky (1/pdf = π/cos), a Bernoulli mean.
             let (t, b) = crate::geom::sampling::onb(n);
-            let s = emitter::mix64(seed ^ 0x5c1e_5c1e);
-            let shift = [(s >> 11) as f64, (emitter::mix64(s ^ 0x9e37) >> 11) as f64].map(|v| v / (1u64 << 53) as f64);
+            let shift = emitter::shift(seed ^ 0x5c1e_5c1e);
             let mut open = 0usize;
             for k in 0..count {
                 let h = emitter::halton2(k as u64 + 1);

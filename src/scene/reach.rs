@@ -63,22 +63,28 @@ impl ObjectReach {
     /// The sides for the scene's lights as they are now placed.
     pub fn sides_for(&self, scene: &Scene) -> Vec<bool> {
         let mut lit = vec![false; self.component.len()];
+        // Marks the component of the first side an object-space ray meets in object `o`.
+        let mut mark = |o: &super::SceneObject, ray: Ray| {
+            if let Some((t, _, _, _)) =
+                crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
+            {
+                let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
+                let back = g.dot(ray.d) > 0.0;
+                lit[self.component[t as usize * 2 + back as usize] as usize] = true;
+            }
+        };
+        let spread = |k: u32| Vec2::new((k as f32 + 0.5) / 64.0, (k as f32 * 0.618_034).fract());
         for l in scene.lights.iter().filter(|l| l.kind != LIGHT_DIRECTIONAL) {
             for o in &scene.objects {
                 let p = crate::geom::transform::xform_point(&o.to_object, Vec3::from(l.position));
                 for k in 0..64u32 {
-                    let u = Vec2::new((k as f32 + 0.5) / 64.0, (k as f32 * 0.618_034).fract());
-                    let ray = Ray {
-                        o: p,
-                        d: uniform_sphere(u),
-                    };
-                    if let Some((t, _, _, _)) =
-                        crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
-                    {
-                        let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
-                        let back = g.dot(ray.d) > 0.0;
-                        lit[self.component[t as usize * 2 + back as usize] as usize] = true;
-                    }
+                    mark(
+                        o,
+                        Ray {
+                            o: p,
+                            d: uniform_sphere(spread(k)),
+                        },
+                    );
                 }
             }
         }
@@ -94,20 +100,15 @@ impl ObjectReach {
             let (tb, bb) = onb(n);
             let start = scene.offset(y, n);
             for k in 0..64u32 {
-                let u = Vec2::new((k as f32 + 0.5) / 64.0, (k as f32 * 0.618_034).fract());
-                let d = cosine_direction(n, tb, bb, u, 0.0);
+                let d = cosine_direction(n, tb, bb, spread(k), 0.0);
                 for o in &scene.objects {
-                    let ray = Ray {
-                        o: crate::geom::transform::xform_point(&o.to_object, start),
-                        d: crate::geom::transform::xform_vector(&o.to_object, d),
-                    };
-                    if let Some((t, _, _, _)) =
-                        crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
-                    {
-                        let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
-                        let back = g.dot(ray.d) > 0.0;
-                        lit[self.component[t as usize * 2 + back as usize] as usize] = true;
-                    }
+                    mark(
+                        o,
+                        Ray {
+                            o: crate::geom::transform::xform_point(&o.to_object, start),
+                            d: crate::geom::transform::xform_vector(&o.to_object, d),
+                        },
+                    );
                 }
             }
         }

@@ -98,8 +98,8 @@ pub fn gather_integral(
 }
 
 /// [`gather_integral`], recording each ray's link into `record` (the approximate
-/// reconstruction; one entry per ray). Under `exact_direct` the sample is still the exact
-/// direct irradiance at the hit, and the link is what the later bounces read there: the
+/// reconstruction; one entry per ray). Under `exact_direct` the sample is still the
+/// direct irradiance at the hit (`Scene::direct_one`), and the link is what the later bounces read there: the
 /// first bounce's rays are the later bounces' rays (§5.6).
 #[allow(clippy::too_many_arguments)]
 fn trace_integral(
