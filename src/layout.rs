@@ -72,8 +72,15 @@ pub struct TextureInfo {
     pub offset: u32,
     pub width: u32,
     pub height: u32,
-    pub pad: u32,
+    /// Wrap modes: u in bits 0–1, v in bits 2–3, each [`WRAP_REPEAT`], [`WRAP_CLAMP`] or
+    /// [`WRAP_MIRROR`] (glTF's samplers; OBJ textures repeat).
+    pub wrap: u32,
 }
+
+/// Texture wrap modes ([`TextureInfo::wrap`]).
+pub const WRAP_REPEAT: u32 = 0;
+pub const WRAP_CLAMP: u32 = 1;
+pub const WRAP_MIRROR: u32 = 2;
 
 /// A light in world space (see `ALGORITHM.md` §2).
 #[repr(C)]

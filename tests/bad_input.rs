@@ -225,3 +225,146 @@ fn unusable_camera() {
     );
     fails_with(scene(&t), &["camera.up"]);
 }
+
+/// Runs `meshrad solve` on a scene holding the glTF `doc` (written as `m.gltf` + `m.bin`,
+/// or `m.glb`), after `spoil` has changed the files; checks the error names each needle.
+fn gltf_fails_with(doc: &common::gltf::Doc, layout: common::gltf::Layout, spoil: impl Fn(&Path), needles: &[&str]) {
+    let dir = common::tmpdir();
+    let d = dir.path();
+    let g = doc.write(d, "m", layout);
+    spoil(d);
+    let name = g.file_name().unwrap().to_str().unwrap();
+    std::fs::write(
+        d.join("s.toml"),
+        format!("[[object]]\nmesh = \"{name}\"\n\n{LIGHT}\n{FAST}"),
+    )
+    .unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args(["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"])
+        .current_dir(d)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "should fail: {needles:?}");
+    assert!(!err.contains("panicked"), "panic: {err}");
+    for n in needles {
+        assert!(err.contains(n), "error should mention `{n}`:\n{err}");
+    }
+    assert!(!d.join("o").exists(), "no output after a failed load");
+}
+
+/// The tetrahedron of [`OBJ`] as glTF positions.
+fn tetra() -> Vec<f32> {
+    let v = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    [[0, 1, 2], [0, 2, 3], [0, 3, 1], [1, 3, 2]]
+        .iter()
+        .flat_map(|f| f.iter().flat_map(|&i| v[i]))
+        .collect()
+}
+
+#[test]
+fn bad_gltf_names_the_file_and_the_json_path() {
+    use common::gltf::{one_mesh, Layout};
+    use serde_json::json;
+    let good = one_mesh(&tetra(), [0.5; 3]);
+    let ok = |_: &Path| {};
+    // The good file passes (so that every failure below is the spoiling's).
+    {
+        let dir = common::tmpdir();
+        good.write(dir.path(), "m", Layout::External);
+        std::fs::write(
+            dir.path().join("s.toml"),
+            format!("[[object]]\nmesh = \"m.gltf\"\n\n{LIGHT}\n{FAST}"),
+        )
+        .unwrap();
+        let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+            .args(["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    }
+    // Not JSON; a truncated .glb.
+    gltf_fails_with(
+        &good,
+        Layout::External,
+        |d| std::fs::write(d.join("m.gltf"), "{ nope").unwrap(),
+        &["m.gltf", "not a valid glTF"],
+    );
+    gltf_fails_with(
+        &good,
+        Layout::Binary,
+        |d| {
+            let b = std::fs::read(d.join("m.glb")).unwrap();
+            std::fs::write(d.join("m.glb"), &b[..b.len() - 20]).unwrap();
+        },
+        &["m.glb", "not a valid glTF"],
+    );
+    // A missing buffer file; a buffer shorter than it says.
+    gltf_fails_with(
+        &good,
+        Layout::External,
+        |d| std::fs::remove_file(d.join("m.bin")).unwrap(),
+        &["m.gltf", "buffers[0]", "m.bin"],
+    );
+    gltf_fails_with(
+        &good,
+        Layout::External,
+        |d| std::fs::write(d.join("m.bin"), [0u8; 8]).unwrap(),
+        &["buffers[0]", "byteLength"],
+    );
+    // An accessor running past its view; a view outside its buffer.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["accessors"][0]["count"] = json!(1000);
+    gltf_fails_with(
+        &doc,
+        Layout::External,
+        ok,
+        &["m.gltf", "meshes[0].primitives[0].attributes.POSITION", "accessors[0]"],
+    );
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["bufferViews"][0]["byteOffset"] = json!(64);
+    gltf_fails_with(&doc, Layout::Binary, ok, &["m.glb", "bufferViews[0]"]);
+    // The wrong component type for POSITION; indices out of range.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["accessors"][0]["componentType"] = json!(5123);
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "POSITION"]);
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    let ix = doc.indices(&[0, 1, 99]);
+    doc.json["meshes"][0]["primitives"][0]["indices"] = json!(ix);
+    gltf_fails_with(
+        &doc,
+        Layout::External,
+        ok,
+        &["meshes[0].primitives[0].indices", "99", "out of range"],
+    );
+    // A textured material on a primitive without texture coordinates.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["images"] = json!([{"uri": "t.png"}]);
+    doc.json["textures"] = json!([{"source": 0}]);
+    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    gltf_fails_with(&doc, Layout::External, ok, &["meshes[0].primitives[0]", "TEXCOORD_0"]);
+    // glTF's default white albedo would create energy; a node that is its own child.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["materials"][0] = json!({"name": "paper"});
+    gltf_fails_with(
+        &doc,
+        Layout::External,
+        ok,
+        &[
+            "m.gltf",
+            "materials[0].pbrMetallicRoughness.baseColorFactor",
+            "would create energy",
+        ],
+    );
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["nodes"][0]["children"] = json!([0]);
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "nodes[0]"]);
+    // A broken data: URI.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["images"] = json!([{"uri": "data:image/png;base64,@@@"}]);
+    doc.json["textures"] = json!([{"source": 0}]);
+    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(0);
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "images[0]", "base64"]);
+}

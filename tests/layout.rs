@@ -123,7 +123,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
     same!(KdSplit, "KdSplit", value, dim);
     same!(Parent, "Parent", node, weight);
     same!(Material, "Material", kd, texture);
-    same!(TextureInfo, "TextureInfo", offset, width, height, pad);
+    same!(TextureInfo, "TextureInfo", offset, width, height, wrap);
     same!(GpuLight, "GpuLight", position, kind, direction, cutoff, power, beam);
     same!(
         ObjectInfo,

@@ -6,20 +6,40 @@
 #include "geometry.glsl"
 #include "sampling.glsl"
 
+// Twin of texture.rs `wrap_coord`: a coordinate into [0, 1] by wrap mode m
+// (0 repeat, 1 clamp, 2 mirror).
+float wrap_coord(float u, uint m) {
+    if (m == 1u) {
+        return clamp(u, 0.0, 1.0);
+    }
+    if (m == 2u) {
+        float t = u - 2.0 * floor(u * 0.5);
+        return t > 1.0 ? 2.0 - t : t;
+    }
+    return u - floor(u);
+}
+
+// Twin of texture.rs `wrap_index`.
+uint wrap_index(int i, uint n, uint m) {
+    int k = int(n);
+    if (m == 0u) {
+        return uint(i < 0 ? i + k : (i >= k ? i - k : i));
+    }
+    return uint(clamp(i, 0, k - 1));
+}
+
 vec3 texel(GlobalsRef g, TextureInfo info, int x, int y) {
-    int w = int(info.width);
-    int h = int(info.height);
-    uint xw = uint(x < 0 ? x + w : (x >= w ? x - w : x));
-    uint yw = uint(y < 0 ? y + h : (y >= h ? y - h : y));
+    uint xw = wrap_index(x, info.width, info.wrap & 3u);
+    uint yw = wrap_index(y, info.height, (info.wrap >> 2u) & 3u);
     uint p = g.texels.v[info.offset + yw * info.width + xw];
     FloatRef lut = g.srgb;
     return vec3(lut.v[p & 0xffu], lut.v[(p >> 8u) & 0xffu], lut.v[(p >> 16u) & 0xffu]);
 }
 
 vec3 sample_texture(GlobalsRef g, TextureInfo info, vec2 uv) {
-    // Repeat: wrap uv into [0, 1) first, so texel indices stay within one period.
-    float x = (uv.x - floor(uv.x)) * float(info.width) - 0.5;
-    float y = (1.0 - (uv.y - floor(uv.y))) * float(info.height) - 0.5;
+    // Wrap uv into [0, 1] first, so texel indices stay within one step of the image.
+    float x = wrap_coord(uv.x, info.wrap & 3u) * float(info.width) - 0.5;
+    float y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2u) & 3u)) * float(info.height) - 0.5;
     float fx = floor(x);
     float fy = floor(y);
     float tx = x - fx;

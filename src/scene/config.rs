@@ -69,7 +69,7 @@ impl Groups {
 }
 
 /// `[camera]`: a pinhole camera.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct CameraEntry {
     pub position: [f32; 3],

@@ -4,6 +4,7 @@
 pub mod camera;
 pub mod config;
 pub mod emitter;
+pub mod gltf_file;
 pub mod light;
 pub mod obj;
 pub mod reach;
@@ -318,7 +319,32 @@ impl Scene {
             })
             .transpose()?
             .filter(|l| l.max_element() > 0.0);
-        let mut scene = b.finish(path, &source, lights, file.camera.as_ref(), &file.solver)?;
+        let mut lights = lights;
+        if !b.gltf_lights.is_empty() {
+            for (object, l) in std::mem::take(&mut b.gltf_lights) {
+                // The light's own name; its object's name before it where that is taken.
+                let mut name = l.name.clone();
+                if light_names.contains(&name) {
+                    name = format!("{object}/{}", l.name);
+                }
+                let base = name.clone();
+                let mut k = 1;
+                while light_names.contains(&name) {
+                    k += 1;
+                    name = format!("{base}#{k}");
+                }
+                lights.push(light::from_table(&l.table, lights.len(), path)?);
+                light_names.push(name);
+                light_tables.push(l.table);
+            }
+            check_light_power(&lights).map_err(|message| Error::SceneValue {
+                path: path.into(),
+                key: "light".into(),
+                message,
+            })?;
+        }
+        let camera_entry = file.camera.clone().or(b.gltf_camera.take());
+        let mut scene = b.finish(path, &source, lights, camera_entry.as_ref(), &file.solver)?;
         scene.sky = sky;
         if scene.lights.is_empty() && !scene.emitters.any() && scene.sky.is_none() {
             return Err(Error::SceneValue {
@@ -713,6 +739,23 @@ fn object_transform(scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Res
     Ok(t)
 }
 
+/// Moves a glTF light's `[[light]]` table from its file's space to the world by its
+/// object's placement: `position` as a point, `direction` as a unit vector.
+fn place_light_table(t: &mut toml::Table, to_world: &Affine) {
+    let get = |t: &toml::Table, k: &str| -> Option<Vec3> {
+        let a = t.get(k)?.as_array()?;
+        let f = |i: usize| a.get(i).and_then(toml::Value::as_float).map(|x| x as f32);
+        Some(Vec3::new(f(0)?, f(1)?, f(2)?))
+    };
+    let arr = |v: Vec3| toml::Value::Array(v.to_array().iter().map(|&x| toml::Value::Float(x as f64)).collect());
+    if let Some(p) = get(t, "position") {
+        t.insert("position".into(), arr(xform_point(to_world, p)));
+    }
+    if let Some(d) = get(t, "direction") {
+        t.insert("direction".into(), arr(xform_vector(to_world, d).normalize_or_zero()));
+    }
+}
+
 /// Whether `t` is a transform a scene may hold: the field at fault and why if not.
 pub fn check_transform(t: &Transform) -> std::result::Result<(), (&'static str, String)> {
     if !(t.scale.is_finite() && t.scale > 0.0) {
@@ -775,6 +818,10 @@ struct Builder {
     /// Whether each material's object lets it emit.
     material_emits: Vec<bool>,
     report: LoadReport,
+    /// glTF objects' lights (`[[light]]` tables in world space) with their object's name.
+    gltf_lights: Vec<(String, gltf_file::GltfLight)>,
+    /// The first glTF camera, in world space.
+    gltf_camera: Option<config::CameraEntry>,
 }
 
 impl Builder {
@@ -784,7 +831,7 @@ impl Builder {
         let transform = object_transform(scene_path, i, e)?;
         let expanded = source::expand_scenes_var(&e.mesh);
         let rel = expanded.as_deref().unwrap_or(Path::new(&e.mesh));
-        let mut mesh = self.read_mesh(source, scene_path, i, e, rel, expanded.as_deref())?;
+        let (mut mesh, gltf) = self.read_mesh(source, scene_path, i, e, rel, expanded.as_deref())?;
         self.report.notes.append(&mut mesh.notes);
         self.report.inputs.append(&mut mesh.inputs);
         self.report.duplicate_dropped += mesh.duplicates;
@@ -828,6 +875,28 @@ impl Builder {
                 },
             });
         }
+        if let Some(g) = gltf {
+            let to_world = transform.to_world();
+            for mut l in g.lights {
+                place_light_table(&mut l.table, &to_world);
+                self.gltf_lights.push((name.clone(), l));
+            }
+            if let (None, Some(c)) = (&self.gltf_camera, g.camera) {
+                let p = xform_point(&to_world, c.position);
+                let (w, h) = match c.aspect {
+                    Some(a) => (((256.0 * a).round() as u32).clamp(1, 16384), 256),
+                    None => (256, 256),
+                };
+                self.gltf_camera = Some(config::CameraEntry {
+                    position: p.to_array(),
+                    target: (p + xform_vector(&to_world, c.forward)).to_array(),
+                    up: xform_vector(&to_world, c.up).to_array(),
+                    fov: c.fov,
+                    width: w,
+                    height: h,
+                });
+            }
+        }
         let emits = e.emission.unwrap_or(true);
         if !emits {
             for m in mesh.materials.iter().filter(|m| m.emission.iter().any(|&c| c > 0.0)) {
@@ -870,7 +939,7 @@ impl Builder {
         e: &config::ObjectEntry,
         rel: &Path,
         expanded: Option<&Path>,
-    ) -> Result<obj::LoadedMesh> {
+    ) -> Result<(obj::LoadedMesh, Option<gltf_file::LoadedGltf>)> {
         let key = |f: &str| format!("object[{i}].{f}");
         let tess = e.tessellate.unwrap_or(0);
         if tess > 8 {
@@ -900,7 +969,13 @@ impl Builder {
                 message: "names no group (give a group name of the OBJ, or a list of them)".into(),
             });
         }
-        let mut mesh = obj::load(source, rel, read_limit, groups.as_deref()).map_err(|err| match (expanded, err) {
+        let loaded = if gltf_file::is_gltf(rel) {
+            gltf_file::load(source, rel, read_limit, groups.as_deref())
+                .map(|mut g| (std::mem::take(&mut g.mesh), Some(g)))
+        } else {
+            obj::load(source, rel, read_limit, groups.as_deref()).map(|m| (m, None))
+        };
+        let (mut mesh, gltf) = loaded.map_err(|err| match (expanded, err) {
             (Some(p), Error::Io { path, error }) if !p.exists() => Error::Io {
                 path,
                 error: std::io::Error::new(
@@ -947,7 +1022,7 @@ impl Builder {
                 message: "no (non-degenerate) triangles".into(),
             });
         }
-        Ok(mesh)
+        Ok((mesh, gltf))
     }
 
     /// The GPU materials: each MTL material checked (albedo below 1, a texture's mean
@@ -959,7 +1034,7 @@ impl Builder {
     ) -> Result<(Vec<Material>, Vec<TextureInfo>, Vec<u32>)> {
         let mut textures = Vec::new();
         let mut texels = Vec::new();
-        let mut texture_paths: Vec<PathBuf> = Vec::new();
+        let mut texture_paths: Vec<(PathBuf, u32)> = Vec::new();
         let mut materials = Vec::new();
         for m in &self.materials {
             let kd = m.kd;
@@ -986,16 +1061,21 @@ impl Builder {
                     if kd.iter().any(|&c| c > 1.0) {
                         return Err(bad_kd("is above 1"));
                     }
-                    match texture_paths.iter().position(|p| p == t) {
+                    match texture_paths.iter().position(|p| *p == (t.clone(), m.wrap)) {
                         Some(k) => k as u32,
                         None => {
-                            let (w, h, px) = texture::load(source, t)?;
-                            self.report.inputs.push(source.display(t));
+                            let (w, h, px) = match &m.texture_data {
+                                Some(bytes) => texture::decode(bytes, &source.display(t))?,
+                                None => {
+                                    self.report.inputs.push(source.display(t));
+                                    texture::load(source, t)?
+                                }
+                            };
                             let info = TextureInfo {
                                 offset: texels.len() as u32,
                                 width: w,
                                 height: h,
-                                pad: 0,
+                                wrap: m.wrap,
                             };
                             texels.extend(px);
                             let mean = texture::mean(&texels, &info, srgb) * Vec3::from(kd);
@@ -1008,7 +1088,7 @@ impl Builder {
                                 });
                             }
                             textures.push(info);
-                            texture_paths.push(t.clone());
+                            texture_paths.push((t.clone(), m.wrap));
                             (textures.len() - 1) as u32
                         }
                     }

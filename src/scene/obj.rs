@@ -22,6 +22,11 @@ pub struct MtlData {
     pub kd: [f32; 3],
     /// `map_Kd`, relative to the scene source.
     pub texture: Option<PathBuf>,
+    /// The texture's bytes when they are not a file of their own (a glTF's embedded
+    /// image; `texture` then only names it).
+    pub texture_data: Option<std::sync::Arc<[u8]>>,
+    /// The texture's wrap modes (`TextureInfo::wrap`; repeat for OBJ).
+    pub wrap: u32,
     /// `map_Kd -o u v` and `-s u v`: texture coordinates become `offset + scale * uv`.
     pub uv_offset: [f32; 2],
     pub uv_scale: [f32; 2],
@@ -39,11 +44,13 @@ pub struct MtlData {
 
 impl MtlData {
     /// A material of the default albedo, untextured, defined in `origin`.
-    fn grey(name: String, origin: PathBuf) -> MtlData {
+    pub(super) fn grey(name: String, origin: PathBuf) -> MtlData {
         MtlData {
             name,
             kd: DEFAULT_KD,
             texture: None,
+            texture_data: None,
+            wrap: 0,
             uv_offset: [0.0; 2],
             uv_scale: [1.0; 2],
             emission: [0.0; 3],

@@ -8,7 +8,7 @@ use glam::{Vec2, Vec3};
 
 use super::source::Source;
 use crate::error::{Error, Result};
-use crate::layout::TextureInfo;
+use crate::layout::{TextureInfo, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
 
 /// sRGB → linear for the 256 8-bit codes (the exact piecewise curve).
 pub fn srgb_table() -> [f32; 256] {
@@ -26,16 +26,20 @@ pub fn srgb_table() -> [f32; 256] {
 
 /// Loads an image as packed RGBA8 texels; returns (width, height, texels).
 pub fn load(source: &Source, rel: &Path) -> Result<(u32, u32, Vec<u32>)> {
-    let bytes = source.read(rel)?;
-    let img = image::load_from_memory(&bytes).map_err(|e| Error::Texture {
-        path: source.display(rel),
+    decode(&source.read(rel)?, &source.display(rel))
+}
+
+/// Decodes an image file's bytes (`shown` names it in errors) as packed RGBA8 texels.
+pub fn decode(bytes: &[u8], shown: &Path) -> Result<(u32, u32, Vec<u32>)> {
+    let img = image::load_from_memory(bytes).map_err(|e| Error::Texture {
+        path: shown.into(),
         message: e.to_string(),
     })?;
     let rgba = img.to_rgba8();
     let (w, h) = rgba.dimensions();
     if w == 0 || h == 0 {
         return Err(Error::Texture {
-            path: source.display(rel),
+            path: shown.into(),
             message: "image is empty".into(),
         });
     }
@@ -46,10 +50,29 @@ pub fn load(source: &Source, rel: &Path) -> Result<(u32, u32, Vec<u32>)> {
     Ok((w, h, texels))
 }
 
+/// A texture coordinate brought into [0, 1] by wrap mode `m` (`TextureInfo::wrap`).
 #[inline]
-fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -> Vec3 {
-    let wrap = |i: i32, n: u32| {
-        let n = n as i32;
+fn wrap_coord(u: f32, m: u32) -> f32 {
+    match m {
+        WRAP_CLAMP => u.clamp(0.0, 1.0),
+        WRAP_MIRROR => {
+            let t = u - 2.0 * (u * 0.5).floor();
+            if t > 1.0 {
+                2.0 - t
+            } else {
+                t
+            }
+        }
+        _ => u - u.floor(),
+    }
+}
+
+/// A texel index at most one step outside `[0, n)` brought back by wrap mode `m`: the
+/// next period for repeat, the edge texel for clamp and mirror.
+#[inline]
+fn wrap_index(i: i32, n: u32, m: u32) -> u32 {
+    let n = n as i32;
+    if m == WRAP_REPEAT {
         (if i < 0 {
             i + n
         } else if i >= n {
@@ -57,8 +80,15 @@ fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -
         } else {
             i
         }) as u32
-    };
-    let (xw, yw) = (wrap(x, info.width), wrap(y, info.height));
+    } else {
+        i.clamp(0, n - 1) as u32
+    }
+}
+
+#[inline]
+fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -> Vec3 {
+    let xw = wrap_index(x, info.width, info.wrap & 3);
+    let yw = wrap_index(y, info.height, (info.wrap >> 2) & 3);
     let p = texels[(info.offset + yw * info.width + xw) as usize];
     Vec3::new(
         lut[(p & 0xff) as usize],
@@ -67,11 +97,11 @@ fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -
     )
 }
 
-/// Bilinear, repeating lookup of linear albedo at `uv`.
+/// Bilinear lookup of linear albedo at `uv` (v up), wrapped by the texture's modes.
 pub fn sample(texels: &[u32], info: &TextureInfo, uv: Vec2, lut: &[f32; 256]) -> Vec3 {
-    // Repeat: wrap uv into [0, 1) first, so texel indices stay within one period.
-    let x = (uv.x - uv.x.floor()) * info.width as f32 - 0.5;
-    let y = (1.0 - (uv.y - uv.y.floor())) * info.height as f32 - 0.5;
+    // Wrap uv into [0, 1] first, so texel indices stay within one step of the image.
+    let x = wrap_coord(uv.x, info.wrap & 3) * info.width as f32 - 0.5;
+    let y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2) & 3)) * info.height as f32 - 0.5;
     let (fx, fy) = (x.floor(), y.floor());
     let (tx, ty) = (x - fx, y - fy);
     let (ix, iy) = (fx as i32, fy as i32);
@@ -118,7 +148,7 @@ mod tests {
             offset: 0,
             width: 2,
             height: 1,
-            pad: 0,
+            wrap: 0,
         };
         let at = |u: f32| sample(&texels, &info, Vec2::new(u, 0.5), &lut).x;
         assert!((at(0.25) - 0.0).abs() < 1e-6);
@@ -126,5 +156,27 @@ mod tests {
         assert!((at(0.5) - 0.5).abs() < 1e-6);
         assert!((at(1.25) - at(0.25)).abs() < 1e-6);
         assert!((at(0.0) - 0.5).abs() < 1e-6, "wraps between last and first texel");
+    }
+
+    #[test]
+    fn clamp_and_mirror() {
+        let lut = srgb_table();
+        let texels = vec![0xff00_0000, 0xffff_ffff];
+        let mut info = TextureInfo {
+            offset: 0,
+            width: 2,
+            height: 1,
+            wrap: WRAP_CLAMP | WRAP_CLAMP << 2,
+        };
+        let at = |info: &TextureInfo, u: f32| sample(&texels, info, Vec2::new(u, 0.5), &lut).x;
+        assert!(at(&info, 0.0).abs() < 1e-6, "clamp: the edge texel, not the far one");
+        assert!((at(&info, 1.0) - 1.0).abs() < 1e-6);
+        assert!((at(&info, 7.3) - 1.0).abs() < 1e-6);
+        assert!(at(&info, -2.0).abs() < 1e-6);
+        info.wrap = WRAP_MIRROR;
+        assert!((at(&info, 1.25) - at(&info, 0.75)).abs() < 1e-6, "mirrored about 1");
+        assert!((at(&info, -0.25) - at(&info, 0.25)).abs() < 1e-6, "mirrored about 0");
+        assert!((at(&info, 2.25) - at(&info, 0.25)).abs() < 1e-6, "period 2");
+        assert!(at(&info, 1.0) > 0.99);
     }
 }

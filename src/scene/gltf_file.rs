@@ -1,0 +1,785 @@
+//! glTF 2.0 loading (`.gltf` with its buffers and images, or `.glb`), through the `gltf`
+//! crate's validated document. Accessors are read here, not by the crate's readers: every
+//! range, component type and index is checked first, so a bad file is an error that names
+//! the file and the JSON path (`meshes[0].primitives[1].indices`), never a panic.
+//!
+//! What a file gives (`ALGORITHM.md` §10):
+//! - triangles of the default scene's node tree, each node's matrix applied (a mirroring
+//!   matrix turns the winding back, as the specification asks); strips and fans become
+//!   triangles;
+//! - albedo `baseColorFactor` × `baseColorTexture` (sRGB, the sampler's wrap modes, glTF's
+//!   v-down uv turned to our v-up), emission `emissiveFactor` ×
+//!   `KHR_materials_emissive_strength` as radiance (W/(m²·sr), like MTL `Ke`);
+//! - `KHR_lights_punctual` lights, photometric units turned radiometric at
+//!   [`LUMENS_PER_WATT`]: candela / 683 = W/sr, lux / 683 = W/m² (Blender's glTF exporter's
+//!   "standard" convention);
+//! - the first perspective camera met in the node tree.
+//!
+//! What it does not use (skins, morph targets, point and line primitives, emissive
+//! textures, orthographic cameras, light ranges, unknown extensions) is named in one note.
+
+use std::collections::{BTreeMap, HashSet};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use ::gltf::accessor::{DataType, Dimensions};
+use ::gltf::mesh::Mode;
+use ::gltf::texture::WrappingMode;
+use glam::{Mat4, Vec3};
+
+use super::obj::{is_degenerate, LoadedMesh, MtlData};
+use super::source::Source;
+use crate::error::{Error, Result};
+use crate::layout::{Tri, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
+
+/// Lumens per watt: the photometric-to-radiometric factor of glTF lights (the luminous
+/// efficacy of 555 nm light).
+pub const LUMENS_PER_WATT: f32 = 683.0;
+
+/// Node trees deeper than this are refused (a cycle, or a file built to exhaust the stack).
+const MAX_DEPTH: usize = 256;
+
+/// A glTF light as a `[[light]]` table would give it (in the file's space).
+#[derive(Clone, Debug)]
+pub struct GltfLight {
+    pub name: String,
+    pub table: toml::Table,
+}
+
+/// A glTF perspective camera (in the file's space).
+#[derive(Clone, Copy, Debug)]
+pub struct GltfCamera {
+    pub position: Vec3,
+    pub forward: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view, degrees.
+    pub fov: f32,
+    pub aspect: Option<f32>,
+}
+
+/// A glTF file's triangles (in the file's space), lights and first camera.
+#[derive(Clone, Debug, Default)]
+pub struct LoadedGltf {
+    pub mesh: LoadedMesh,
+    pub lights: Vec<GltfLight>,
+    pub camera: Option<GltfCamera>,
+}
+
+/// Whether `rel` names a glTF file (by its extension).
+pub fn is_gltf(rel: &Path) -> bool {
+    rel.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
+}
+
+/// Loads `rel` from `source`; it and each buffer and image may have at most `limit` bytes.
+/// With `groups`, only the subtrees of the nodes of those names are kept (each must exist).
+pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) -> Result<LoadedGltf> {
+    let shown = source.display(rel);
+    let err = |message: String| Error::Mesh {
+        path: shown.clone(),
+        line: None,
+        message,
+    };
+    let bytes = source.read_limited(rel, limit)?;
+    let file = ::gltf::Gltf::from_slice_without_validation(&bytes)
+        .map_err(|e| err(format!("not a valid glTF 2.0 file: {e}")))?;
+    validate(file.document.as_json()).map_err(|m| err(format!("not a valid glTF 2.0 file: {m}")))?;
+    let doc = &file.document;
+    let dir = rel.parent().map(Path::to_path_buf).unwrap_or_default();
+    let mut out = LoadedGltf::default();
+    out.mesh.inputs.push(shown.clone());
+
+    // Buffers, each checked against its declared length.
+    let mut buffers: Vec<Arc<[u8]>> = Vec::new();
+    for b in doc.buffers() {
+        let at = format!("buffers[{}]", b.index());
+        let data: Arc<[u8]> = match b.source() {
+            ::gltf::buffer::Source::Bin => match &file.blob {
+                Some(blob) => Arc::from(blob.as_slice()),
+                None => {
+                    return Err(err(format!(
+                        "{at}: refers to the GLB binary chunk, which the file lacks"
+                    )))
+                }
+            },
+            ::gltf::buffer::Source::Uri(uri) => {
+                read_uri(source, &dir, uri, limit, &mut out.mesh.inputs).map_err(|m| err(format!("{at}: {m}")))?
+            }
+        };
+        if data.len() < b.length() {
+            return Err(err(format!(
+                "{at}: has {} bytes, the file declares byteLength {}",
+                data.len(),
+                b.length()
+            )));
+        }
+        buffers.push(data);
+    }
+
+    // Materials (ours: the file's, then a default grey for primitives without one).
+    let mut unsupported: BTreeMap<&'static str, usize> = BTreeMap::new();
+    // The TEXCOORD set each material's base colour texture reads.
+    let mut tex_sets: Vec<Option<u32>> = Vec::new();
+    for m in doc.materials() {
+        let i = m.index().unwrap_or(0);
+        let at = format!("materials[{i}]");
+        let name = match m.name() {
+            Some(n) if !n.is_empty() => format!("{n} ({at})"),
+            _ => at.clone(),
+        };
+        let pbr = m.pbr_metallic_roughness();
+        let f = pbr.base_color_factor();
+        let mut md = MtlData::grey(name, shown.clone());
+        md.used_by = shown.clone();
+        md.kd = [f[0], f[1], f[2]];
+        let textured = pbr.base_color_texture().is_some();
+        if md
+            .kd
+            .iter()
+            .any(|&c| !(0.0..=1.0).contains(&c) || (c == 1.0 && !textured))
+        {
+            return Err(err(format!(
+                "{at}.pbrMetallicRoughness.baseColorFactor {f:?}: the albedo must be in [0, 1){} (glTF's default is \
+                 white, an albedo of 1 that would create energy: give the material a colour below 1)",
+                if textured { ", or up to 1 under a texture" } else { "" }
+            )));
+        }
+        let strength = m.emissive_strength().unwrap_or(1.0);
+        let e = m.emissive_factor().map(|c| c * strength);
+        if e.iter().any(|c| !c.is_finite() || *c < 0.0) {
+            return Err(err(format!(
+                "{at}: emission {e:?} (emissiveFactor × emissive_strength) must be finite and non-negative"
+            )));
+        }
+        md.emission = e;
+        if m.emissive_texture().is_some() {
+            *unsupported
+                .entry("emissive textures (the emission is the factor alone)")
+                .or_default() += 1;
+        }
+        if let Some(info) = pbr.base_color_texture() {
+            let tex = info.texture();
+            let img = tex.source();
+            let key = format!("{}#images[{}]", rel.display(), img.index());
+            // From the JSON: the crate's `Image::source` unwraps a missing `mimeType`.
+            let ij = &doc.as_json().images[img.index()];
+            let (path, data) = match (&ij.buffer_view, &ij.uri) {
+                (Some(v), _) => {
+                    let view = doc
+                        .views()
+                        .nth(v.value())
+                        .ok_or_else(|| err(format!("images[{}]: no bufferView {}", img.index(), v.value())))?;
+                    let bytes = view_slice(&buffers, &view).map_err(|m| err(format!("{at}: its image: {m}")))?;
+                    (PathBuf::from(key), Some(Arc::from(bytes)))
+                }
+                (None, Some(uri)) if uri.starts_with("data:") => {
+                    let bytes = read_uri(source, &dir, uri, limit, &mut out.mesh.inputs)
+                        .map_err(|m| err(format!("images[{}]: {m}", img.index())))?;
+                    (PathBuf::from(key), Some(bytes))
+                }
+                (None, Some(uri)) => (dir.join(percent_decode(uri)), None),
+                (None, None) => {
+                    return Err(err(format!(
+                        "images[{}]: has neither a bufferView nor a uri",
+                        img.index()
+                    )))
+                }
+            };
+            md.texture = Some(path);
+            md.texture_data = data;
+            let mode = |w: WrappingMode| match w {
+                WrappingMode::ClampToEdge => WRAP_CLAMP,
+                WrappingMode::MirroredRepeat => WRAP_MIRROR,
+                WrappingMode::Repeat => WRAP_REPEAT,
+            };
+            md.wrap = mode(tex.sampler().wrap_s()) | mode(tex.sampler().wrap_t()) << 2;
+        }
+        tex_sets.push(pbr.base_color_texture().map(|t| t.tex_coord()));
+        out.mesh.materials.push(md);
+    }
+    let default_material = out.mesh.materials.len() as u32;
+
+    // The node tree of the default scene (or the first; or every root node if none).
+    let roots: Vec<::gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(s) => s.nodes().collect(),
+        None => {
+            let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+        }
+    };
+    let mut walk = Walk {
+        buffers: &buffers,
+        cameras: &doc.as_json().cameras,
+        out: &mut out,
+        seen: HashSet::new(),
+        tex_sets: &tex_sets,
+        default_material,
+        unsupported: &mut unsupported,
+        any_uv: false,
+        selected: groups.map(|g| g.to_vec()),
+        found: HashSet::new(),
+    };
+    for n in &roots {
+        walk.node(n, Mat4::IDENTITY, 0, groups.is_none()).map_err(err)?;
+    }
+    let any_uv = walk.any_uv;
+    if let Some(names) = groups {
+        if let Some(missing) = names.iter().find(|g| !walk.found.contains(*g)) {
+            let have: Vec<&str> = doc.nodes().filter_map(|n| n.name()).take(40).collect();
+            return Err(err(format!(
+                "has no node `{missing}` in its scene (its named nodes: {})",
+                if have.is_empty() {
+                    "none".to_string()
+                } else {
+                    have.join(", ")
+                }
+            )));
+        }
+    }
+    if !any_uv {
+        out.mesh.uvs.clear();
+    }
+    if out.mesh.unassigned > 0 {
+        out.mesh.materials.push(MtlData {
+            used_by: shown.clone(),
+            ..MtlData::grey("(default)".into(), shown.clone())
+        });
+    }
+    for e in doc.extensions_used() {
+        if !matches!(e, "KHR_lights_punctual" | "KHR_materials_emissive_strength") {
+            *unsupported.entry("extensions").or_default() += 1;
+        }
+    }
+    if !unsupported.is_empty() {
+        let parts: Vec<String> = unsupported.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
+        let mut note = format!("{}: glTF parts not used: {}", shown.display(), parts.join("; "));
+        let unknown: Vec<&str> = doc
+            .extensions_used()
+            .filter(|e| !matches!(*e, "KHR_lights_punctual" | "KHR_materials_emissive_strength"))
+            .collect();
+        if !unknown.is_empty() {
+            note.push_str(&format!(" (extensions: {})", unknown.join(", ")));
+        }
+        out.mesh.notes.push(note);
+    }
+    Ok(out)
+}
+
+/// The `gltf` crate's validation of a document, after the one check its own validation
+/// needs first: its POSITION rule indexes `accessors` without a bounds check (a panic on
+/// an out-of-range POSITION accessor in gltf-json 1.4.1).
+fn validate(root: &::gltf::json::Root) -> std::result::Result<(), String> {
+    use ::gltf::json::validation::{Checked, Validate};
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            if let Some(a) = prim
+                .attributes
+                .get(&Checked::Valid(::gltf::json::mesh::Semantic::Positions))
+            {
+                if a.value() >= root.accessors.len() {
+                    return Err(format!(
+                        "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not exist ({} accessors)",
+                        a.value(),
+                        root.accessors.len()
+                    ));
+                }
+            }
+        }
+    }
+    let mut errors = Vec::new();
+    root.validate(root, ::gltf::json::Path::new, &mut |path, error| {
+        errors.push(format!("{}: {error}", path()))
+    });
+    match errors.len() {
+        0 => Ok(()),
+        n => Err(format!(
+            "{}{}",
+            errors[..n.min(8)].join("; "),
+            if n > 8 {
+                format!("; and {} more", n - 8)
+            } else {
+                String::new()
+            }
+        )),
+    }
+}
+
+/// The state of one walk over the node tree.
+struct Walk<'a> {
+    buffers: &'a [Arc<[u8]>],
+    cameras: &'a [::gltf::json::Camera],
+    out: &'a mut LoadedGltf,
+    /// Triangles already kept (their three corners), for dropping exact duplicates.
+    seen: HashSet<[[u32; 3]; 3]>,
+    /// The TEXCOORD set each material's base colour texture reads.
+    tex_sets: &'a [Option<u32>],
+    default_material: u32,
+    unsupported: &'a mut BTreeMap<&'static str, usize>,
+    any_uv: bool,
+    /// `group`: only these nodes' subtrees.
+    selected: Option<Vec<String>>,
+    found: HashSet<String>,
+}
+
+impl Walk<'_> {
+    /// Adds node `n` (under the parent matrix `parent`) and its children; `on`: inside a
+    /// selected subtree (always, without `group`).
+    fn node(&mut self, n: &::gltf::Node, parent: Mat4, depth: usize, on: bool) -> std::result::Result<(), String> {
+        let at = format!("nodes[{}]", n.index());
+        if depth > MAX_DEPTH {
+            return Err(format!("{at}: the node tree is deeper than {MAX_DEPTH} (a cycle?)"));
+        }
+        let local = Mat4::from_cols_array_2d(&n.transform().matrix());
+        if !local.is_finite() {
+            return Err(format!("{at}: its transform is not finite"));
+        }
+        let m = parent * local;
+        let on = on
+            || match (&self.selected, n.name()) {
+                (Some(sel), Some(name)) if sel.iter().any(|s| s == name) => {
+                    self.found.insert(name.to_string());
+                    true
+                }
+                _ => false,
+            };
+        if on {
+            if n.skin().is_some() {
+                *self.unsupported.entry("skins (meshes in their bind pose)").or_default() += 1;
+            }
+            if let Some(mesh) = n.mesh() {
+                for p in mesh.primitives() {
+                    let pat = format!("meshes[{}].primitives[{}]", mesh.index(), p.index());
+                    self.primitive(&p, &m, &pat)?;
+                }
+            }
+            if let Some(l) = n.light() {
+                self.light(&l, &m, n).map_err(|e| format!("{at}: {e}"))?;
+            }
+            if let Some(c) = n.camera() {
+                // From the JSON: the crate's `Camera::projection` unwraps the object its
+                // `type` names, which validation does not require.
+                let cj = c.index();
+                match (
+                    self.cameras[cj].perspective.as_ref(),
+                    self.cameras[cj].orthographic.is_some(),
+                ) {
+                    (Some(p), _) if self.out.camera.is_none() => {
+                        let yfov = p.yfov;
+                        if !(yfov.is_finite() && yfov > 0.0 && yfov < std::f32::consts::PI) {
+                            return Err(format!(
+                                "cameras[{}].perspective.yfov: {yfov} is not in (0, π)",
+                                c.index()
+                            ));
+                        }
+                        self.out.camera = Some(GltfCamera {
+                            position: m.transform_point3(Vec3::ZERO),
+                            forward: m.transform_vector3(Vec3::NEG_Z),
+                            up: m.transform_vector3(Vec3::Y),
+                            fov: yfov.to_degrees(),
+                            aspect: p.aspect_ratio.filter(|a| a.is_finite() && *a > 0.0),
+                        });
+                    }
+                    (None, true) => {
+                        *self.unsupported.entry("orthographic cameras").or_default() += 1;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        for c in n.children() {
+            self.node(&c, m, depth + 1, on)?;
+        }
+        Ok(())
+    }
+
+    /// A `KHR_lights_punctual` light placed by the node matrix `m`.
+    fn light(
+        &mut self,
+        l: &::gltf::khr_lights_punctual::Light,
+        m: &Mat4,
+        n: &::gltf::Node,
+    ) -> std::result::Result<(), String> {
+        let at = format!("KHR_lights_punctual.lights[{}]", l.index());
+        let c = Vec3::from(l.color()) * l.intensity() / LUMENS_PER_WATT;
+        if !c.is_finite() || c.min_element() < 0.0 {
+            return Err(format!(
+                "{at}: color {:?} × intensity {} must be finite and non-negative",
+                l.color(),
+                l.intensity()
+            ));
+        }
+        if l.range().is_some() {
+            *self
+                .unsupported
+                .entry("light ranges (lights fall off as 1/r² without end)")
+                .or_default() += 1;
+        }
+        let position = m.transform_point3(Vec3::ZERO);
+        let direction = m.transform_vector3(Vec3::NEG_Z);
+        if !position.is_finite() || !direction.is_finite() || direction.length() == 0.0 {
+            return Err(format!("{at}: its node's matrix gives no position or direction"));
+        }
+        let direction = direction.normalize();
+        let arr = |v: Vec3| toml::Value::Array(v.to_array().iter().map(|&x| toml::Value::Float(x as f64)).collect());
+        let mut t = toml::Table::new();
+        use ::gltf::khr_lights_punctual::Kind;
+        match l.kind() {
+            Kind::Directional => {
+                t.insert("type".into(), "directional".into());
+                t.insert("direction".into(), arr(direction));
+                t.insert("irradiance".into(), arr(c));
+            }
+            Kind::Point => {
+                t.insert("type".into(), "point".into());
+                t.insert("position".into(), arr(position));
+                t.insert("intensity".into(), arr(c));
+            }
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => {
+                let half_pi = std::f32::consts::FRAC_PI_2;
+                if !(outer_cone_angle > 0.0 && outer_cone_angle <= half_pi) {
+                    return Err(format!(
+                        "{at}: spot.outerConeAngle {outer_cone_angle} is not in (0, π/2]"
+                    ));
+                }
+                if !(inner_cone_angle >= 0.0 && inner_cone_angle < outer_cone_angle) {
+                    return Err(format!(
+                        "{at}: spot.innerConeAngle {inner_cone_angle} is not in [0, outerConeAngle)"
+                    ));
+                }
+                t.insert("type".into(), "spot".into());
+                t.insert("position".into(), arr(position));
+                t.insert("direction".into(), arr(direction));
+                t.insert("intensity".into(), arr(c));
+                t.insert(
+                    "cutoff_angle".into(),
+                    toml::Value::Float(outer_cone_angle.to_degrees() as f64),
+                );
+                t.insert(
+                    "beam_width".into(),
+                    toml::Value::Float(inner_cone_angle.to_degrees() as f64),
+                );
+            }
+        }
+        let name = l
+            .name()
+            .or(n.name())
+            .filter(|s| !s.trim().is_empty())
+            .map(str::to_string)
+            .unwrap_or_else(|| format!("lights[{}]", l.index()));
+        self.out.lights.push(GltfLight { name, table: t });
+        Ok(())
+    }
+
+    /// One primitive's triangles, placed by the node matrix `m`.
+    fn primitive(&mut self, p: &::gltf::Primitive, m: &Mat4, at: &str) -> std::result::Result<(), String> {
+        let mode = p.mode();
+        if !matches!(mode, Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan) {
+            *self.unsupported.entry("point and line primitives").or_default() += 1;
+            return Ok(());
+        }
+        if p.morph_targets().next().is_some() {
+            *self
+                .unsupported
+                .entry("morph targets (the base shape is used)")
+                .or_default() += 1;
+        }
+        let pos_acc = p
+            .get(&::gltf::Semantic::Positions)
+            .ok_or_else(|| format!("{at}: has no POSITION attribute"))?;
+        let pos = floats(self.buffers, &pos_acc, 3, false).map_err(|e| format!("{at}.attributes.POSITION: {e}"))?;
+        let nv = pos.len() / 3;
+        let index: Vec<u32> = match p.indices() {
+            Some(acc) => {
+                let ix = indices(self.buffers, &acc).map_err(|e| format!("{at}.indices: {e}"))?;
+                if let Some(bad) = ix.iter().find(|&&i| i as usize >= nv) {
+                    return Err(format!(
+                        "{at}.indices: index {bad} is out of range (POSITION has {nv} vertices)"
+                    ));
+                }
+                ix
+            }
+            None => (0..nv as u32).collect(),
+        };
+        let material_index = p.material().index();
+        let (material, set) = match material_index {
+            Some(k) => (k as u32, self.tex_sets.get(k).copied().flatten()),
+            None => (self.default_material, None),
+        };
+        let uv: Option<Vec<f32>> = match set {
+            Some(s) => {
+                let acc = p.get(&::gltf::Semantic::TexCoords(s)).ok_or_else(|| {
+                    format!(
+                        "{at}: its material materials[{material}] has a baseColorTexture on TEXCOORD_{s}, which the \
+                         primitive lacks"
+                    )
+                })?;
+                let v =
+                    floats(self.buffers, &acc, 2, true).map_err(|e| format!("{at}.attributes.TEXCOORD_{s}: {e}"))?;
+                if v.len() / 2 != nv {
+                    return Err(format!(
+                        "{at}.attributes.TEXCOORD_{s}: {} elements, POSITION has {nv}",
+                        v.len() / 2
+                    ));
+                }
+                Some(v)
+            }
+            None => None,
+        };
+        let corners: Vec<[u32; 3]> = match mode {
+            Mode::Triangles => index.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+            Mode::TriangleStrip => (0..index.len().saturating_sub(2))
+                .map(|i| {
+                    if i % 2 == 0 {
+                        [index[i], index[i + 1], index[i + 2]]
+                    } else {
+                        [index[i + 1], index[i], index[i + 2]]
+                    }
+                })
+                .collect(),
+            _ => (1..index.len().saturating_sub(1))
+                .map(|i| [index[0], index[i], index[i + 1]])
+                .collect(),
+        };
+        // A mirroring matrix turns the winding; the specification keeps the front face.
+        let flip = m.determinant() < 0.0;
+        if material_index.is_none() {
+            self.out.mesh.unassigned += corners.len();
+        }
+        self.any_uv |= uv.is_some();
+        let place = |i: u32| {
+            let i = i as usize * 3;
+            m.transform_point3(Vec3::new(pos[i], pos[i + 1], pos[i + 2])).to_array()
+        };
+        for c in corners {
+            let c = if flip { [c[0], c[2], c[1]] } else { c };
+            let tri = Tri {
+                v0: place(c[0]),
+                v1: place(c[1]),
+                v2: place(c[2]),
+                material,
+                ..Default::default()
+            };
+            if is_degenerate(&tri) {
+                self.out.mesh.degenerate += 1;
+                continue;
+            }
+            let mut key = [tri.v0, tri.v1, tri.v2].map(|v| v.map(f32::to_bits));
+            key.sort_unstable();
+            if !self.seen.insert(key) {
+                self.out.mesh.duplicates += 1;
+                continue;
+            }
+            self.out.mesh.tris.push(tri);
+            let mut t = [0.0f32; 6];
+            if let Some(uv) = &uv {
+                for (k, &i) in c.iter().enumerate() {
+                    // glTF's v runs down the image, ours up.
+                    t[k * 2] = uv[i as usize * 2];
+                    t[k * 2 + 1] = 1.0 - uv[i as usize * 2 + 1];
+                }
+            }
+            self.out.mesh.uvs.push(t);
+        }
+        Ok(())
+    }
+}
+
+/// The bytes of a buffer view, checked against its buffer.
+fn view_slice<'b>(buffers: &'b [Arc<[u8]>], v: &::gltf::buffer::View) -> std::result::Result<&'b [u8], String> {
+    let b = buffers
+        .get(v.buffer().index())
+        .ok_or_else(|| format!("bufferViews[{}]: no buffer {}", v.index(), v.buffer().index()))?;
+    let end = v
+        .offset()
+        .checked_add(v.length())
+        .filter(|&e| e <= b.len())
+        .ok_or_else(|| {
+            format!(
+                "bufferViews[{}]: bytes {}..{} are outside buffers[{}] ({} bytes)",
+                v.index(),
+                v.offset(),
+                v.offset().saturating_add(v.length()),
+                v.buffer().index(),
+                b.len()
+            )
+        })?;
+    Ok(&b[v.offset()..end])
+}
+
+/// An accessor's elements' bytes: (the view's bytes from the first element, stride,
+/// element size), every element checked to lie inside the view.
+fn elements<'b>(
+    buffers: &'b [Arc<[u8]>],
+    a: &::gltf::Accessor,
+) -> std::result::Result<(&'b [u8], usize, usize), String> {
+    let at = format!("accessors[{}]", a.index());
+    if a.sparse().is_some() {
+        return Err(format!("{at}: sparse accessors are not supported"));
+    }
+    let view = a
+        .view()
+        .ok_or_else(|| format!("{at}: has no bufferView (all-zero accessors are not supported)"))?;
+    let data = view_slice(buffers, &view)?;
+    let size = a.data_type().size() * a.dimensions().multiplicity();
+    let stride = view.stride().unwrap_or(size);
+    if stride < size {
+        return Err(format!(
+            "{at}: byteStride {stride} is less than its element ({size} bytes)"
+        ));
+    }
+    let count = a.count();
+    if count == 0 {
+        return Ok((&[], stride, size));
+    }
+    let end = (count - 1)
+        .checked_mul(stride)
+        .and_then(|x| x.checked_add(size))
+        .and_then(|x| x.checked_add(a.offset()))
+        .filter(|&e| e <= data.len())
+        .ok_or_else(|| {
+            format!(
+                "{at}: {count} elements from byte {} with stride {stride} run past bufferViews[{}] ({} bytes)",
+                a.offset(),
+                view.index(),
+                data.len()
+            )
+        })?;
+    Ok((&data[a.offset()..end], stride, size))
+}
+
+/// A float accessor of `dims` components (`VEC2`/`VEC3` of FLOAT; with `normalized`, also
+/// normalised UNSIGNED_BYTE/SHORT, as glTF allows for texture coordinates), flattened.
+fn floats(
+    buffers: &[Arc<[u8]>],
+    a: &::gltf::Accessor,
+    dims: usize,
+    normalized: bool,
+) -> std::result::Result<Vec<f32>, String> {
+    let at = format!("accessors[{}]", a.index());
+    let want = if dims == 2 { Dimensions::Vec2 } else { Dimensions::Vec3 };
+    if a.dimensions() != want {
+        return Err(format!("{at}: type {:?}, expected {want:?}", a.dimensions()));
+    }
+    let ok = match a.data_type() {
+        DataType::F32 => true,
+        DataType::U8 | DataType::U16 => normalized && a.normalized(),
+        _ => false,
+    };
+    if !ok {
+        return Err(format!(
+            "{at}: componentType {:?}{} is not allowed here (expected FLOAT{})",
+            a.data_type(),
+            if a.normalized() { " normalized" } else { "" },
+            if normalized {
+                ", or normalized UNSIGNED_BYTE / UNSIGNED_SHORT"
+            } else {
+                ""
+            }
+        ));
+    }
+    let (bytes, stride, size) = elements(buffers, a)?;
+    let mut out = Vec::with_capacity(a.count() * dims);
+    let c = a.data_type().size();
+    for e in 0..a.count() {
+        let el = &bytes[e * stride..e * stride + size];
+        for k in 0..dims {
+            let b = &el[k * c..(k + 1) * c];
+            let v = match a.data_type() {
+                DataType::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+                DataType::U8 => b[0] as f32 / 255.0,
+                _ => u16::from_le_bytes([b[0], b[1]]) as f32 / 65535.0,
+            };
+            if !v.is_finite() {
+                return Err(format!("{at}: element {e} is not finite"));
+            }
+            out.push(v);
+        }
+    }
+    Ok(out)
+}
+
+/// An index accessor (`SCALAR` of UNSIGNED_BYTE / SHORT / INT).
+fn indices(buffers: &[Arc<[u8]>], a: &::gltf::Accessor) -> std::result::Result<Vec<u32>, String> {
+    let at = format!("accessors[{}]", a.index());
+    if a.dimensions() != Dimensions::Scalar || !matches!(a.data_type(), DataType::U8 | DataType::U16 | DataType::U32) {
+        return Err(format!(
+            "{at}: {:?} of {:?}, expected SCALAR of UNSIGNED_BYTE, UNSIGNED_SHORT or UNSIGNED_INT",
+            a.dimensions(),
+            a.data_type()
+        ));
+    }
+    let (bytes, stride, _) = elements(buffers, a)?;
+    Ok((0..a.count())
+        .map(|e| {
+            let b = &bytes[e * stride..];
+            match a.data_type() {
+                DataType::U8 => b[0] as u32,
+                DataType::U16 => u16::from_le_bytes([b[0], b[1]]) as u32,
+                _ => u32::from_le_bytes([b[0], b[1], b[2], b[3]]),
+            }
+        })
+        .collect())
+}
+
+/// A buffer's or image's URI: a base64 `data:` URI, or a file relative to the glTF's
+/// folder (percent-decoded), read within `limit` and recorded in `inputs`.
+fn read_uri(
+    source: &Source,
+    dir: &Path,
+    uri: &str,
+    limit: u64,
+    inputs: &mut Vec<PathBuf>,
+) -> std::result::Result<Arc<[u8]>, String> {
+    if let Some(rest) = uri.strip_prefix("data:") {
+        let (meta, payload) = rest
+            .split_once(',')
+            .ok_or_else(|| "its data: URI has no `,`".to_string())?;
+        if !meta.ends_with(";base64") {
+            return Err("its data: URI is not base64".into());
+        }
+        use base64::Engine;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(payload)
+            .map_err(|e| format!("its data: URI is not valid base64: {e}"))?;
+        if bytes.len() as u64 > limit {
+            return Err(format!(
+                "its data: URI holds {} bytes, above the limit of {limit}",
+                bytes.len()
+            ));
+        }
+        return Ok(Arc::from(bytes));
+    }
+    if uri.contains("://") {
+        return Err(format!(
+            "`{uri}`: only files beside the glTF and data: URIs can be read"
+        ));
+    }
+    let rel = dir.join(percent_decode(uri));
+    let bytes = source.read_limited(&rel, limit).map_err(|e| e.to_string())?;
+    inputs.push(source.display(&rel));
+    Ok(Arc::from(bytes))
+}
+
+/// `%20` and the like in a relative URI.
+fn percent_decode(uri: &str) -> String {
+    let b = uri.as_bytes();
+    let mut out = Vec::with_capacity(b.len());
+    let mut i = 0;
+    while i < b.len() {
+        if b[i] == b'%' && i + 2 < b.len() {
+            let hex = |c: u8| (c as char).to_digit(16);
+            if let (Some(h), Some(l)) = (hex(b[i + 1]), hex(b[i + 2])) {
+                out.push((h * 16 + l) as u8);
+                i += 3;
+                continue;
+            }
+        }
+        out.push(b[i]);
+        i += 1;
+    }
+    String::from_utf8_lossy(&out).into_owned()
+}

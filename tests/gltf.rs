@@ -1,0 +1,457 @@
+//! glTF 2.0 scenes (`ALGORITHM.md` §10): the Cornell box written as a glTF (its
+//! luminaire's emission, the spot as a `KHR_lights_punctual` light, the camera, node
+//! transforms) solves to the OBJ + TOML box's answer; textures with glTF's uv convention
+//! and wrap modes, photometric light units, mirroring node matrices, strips and the note
+//! that names what is not used.
+
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use common::gltf::{one_mesh, Doc, Layout};
+use glam::Vec3;
+use meshrad::scene::obj;
+use meshrad::scene::source::Source;
+use serde_json::json;
+
+const SOLVER: &str = "levels = 4\ncoarsest = 60\nrays = 64\nbounces = 3\nsender_level = 3\n";
+
+/// The shipped Cornell box's folder.
+fn scenes() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes")
+}
+
+/// The Cornell box (cornell_original_mm.obj with its luminaire emitting) as a glTF: the
+/// mesh at half size under a root node that scales by 2 (exact in binary), one primitive
+/// per run of a material in the OBJ's face order, the ceiling spot of cornell_box.toml as
+/// a spot light (candela = W/sr × 683), and the cbox camera.
+fn cornell_gltf() -> Doc {
+    let mesh = obj::load(
+        &Source::Dir(scenes()),
+        Path::new("cornell_original_mm.obj"),
+        1 << 30,
+        None,
+    )
+    .unwrap();
+    let mut d = Doc::default();
+    d.json["extensionsUsed"] = json!(["KHR_lights_punctual", "KHR_materials_emissive_strength"]);
+    for m in &mesh.materials {
+        let e = m.emission;
+        let s = e[0].max(e[1]).max(e[2]);
+        let mut mat = json!({"name": m.name,
+                             "pbrMetallicRoughness": {"baseColorFactor": [m.kd[0], m.kd[1], m.kd[2], 1.0]}});
+        if s > 0.0 {
+            mat["emissiveFactor"] = json!([e[0] / s, e[1] / s, e[2] / s]);
+            mat["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": s}});
+        }
+        d.push("materials", mat);
+    }
+    let mut prims = Vec::new();
+    let mut start = 0;
+    while start < mesh.tris.len() {
+        let material = mesh.tris[start].material;
+        let end = (start..mesh.tris.len())
+            .find(|&i| mesh.tris[i].material != material)
+            .unwrap_or(mesh.tris.len());
+        let pos: Vec<f32> = mesh.tris[start..end]
+            .iter()
+            .flat_map(|t| [t.v0, t.v1, t.v2])
+            .flat_map(|v| v.map(|c| c * 0.5))
+            .collect();
+        let a = d.floats(&pos, "VEC3");
+        prims.push(json!({"attributes": {"POSITION": a}, "material": material}));
+        start = end;
+    }
+    let m = d.push("meshes", json!({"name": "cbox", "primitives": prims}));
+    let geometry = d.push("nodes", json!({"name": "geometry", "mesh": m}));
+    // The spot: local -z turned to world -y (a rotation of -90° about x, written as a
+    // matrix with exact entries), at half the position under the scaling root.
+    let spot = d.push(
+        "nodes",
+        json!({"name": "spot-node", "extensions": {"KHR_lights_punctual": {"light": 0}},
+               "matrix": [1, 0, 0, 0,  0, 0, -1, 0,  0, 1, 0, 0,  139.0, 274.0, 139.8, 1]}),
+    );
+    let root = d.push(
+        "nodes",
+        json!({"name": "box", "scale": [2.0, 2.0, 2.0], "children": [geometry, spot]}),
+    );
+    // cbox's camera at (278, 273, -800) looking along +z: glTF cameras look down -z, so
+    // half a turn about y.
+    let cam = d.push(
+        "cameras",
+        json!({"type": "perspective",
+               "perspective": {"yfov": 39.3077f32.to_radians(), "aspectRatio": 1.0, "znear": 1.0}}),
+    );
+    let camera = d.push(
+        "nodes",
+        json!({"camera": cam, "translation": [278.0, 273.0, -800.0], "rotation": [0.0, 1.0, 0.0, 0.0]}),
+    );
+    d.json["scenes"][0]["nodes"] = json!([root, camera]);
+    d.json["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "spot", "name": "spot", "color": [1.0, 1.0, 1.0], "intensity": 300000.0 * 683.0,
+         "spot": {"innerConeAngle": 45f32.to_radians(), "outerConeAngle": 60f32.to_radians()}}
+    ]}});
+    d
+}
+
+/// The OBJ + TOML version of the same box: the luminaire emitting, the spot and camera of
+/// cornell_box.toml.
+fn cornell_toml(dir: &Path) -> PathBuf {
+    let obj = scenes().join("cornell_original_mm.obj");
+    let text = format!(
+        "[[object]]\nmesh = {:?}\n\n[[light]]\nname = \"spot\"\ntype = \"spot\"\nposition = [278.0, 548.0, 279.6]\n\
+         target = [278.0, 0.0, 279.6]\nintensity = [300000.0, 300000.0, 300000.0]\ncutoff_angle = 60.0\n\
+         beam_width = 45.0\n\n[camera]\nposition = [278.0, 273.0, -800.0]\ntarget = [278.0, 273.0, -799.0]\n\
+         up = [0.0, 1.0, 0.0]\nfov = 39.3077\nwidth = 256\nheight = 256\n\n[solver]\n{SOLVER}",
+        obj.to_str().unwrap()
+    );
+    let p = dir.join("obj.toml");
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// A scene file holding one glTF object and `extra` TOML.
+fn gltf_toml(dir: &Path, mesh: &Path, extra: &str) -> PathBuf {
+    let p = dir.join(format!(
+        "{}.toml",
+        mesh.file_name().unwrap().to_str().unwrap().replace('.', "_")
+    ));
+    std::fs::write(
+        &p,
+        format!(
+            "[[object]]\nmesh = {:?}\n{extra}\n[solver]\n{SOLVER}",
+            mesh.file_name().unwrap().to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    p
+}
+
+/// Largest difference of two value lists, relative to the largest value.
+fn max_rel_diff(a: impl Iterator<Item = f32> + Clone, b: impl Iterator<Item = f32>) -> f32 {
+    let top = a.clone().fold(0.0f32, |m, x| m.max(x.abs()));
+    a.zip(b).fold(0.0f32, |m, (x, y)| m.max((x - y).abs())) / top.max(1e-30)
+}
+
+#[test]
+fn cornell_as_gltf_solves_as_obj_and_toml() {
+    let dir = common::tmpdir();
+    let doc = cornell_gltf();
+    let (obj_scene, params) = common::load(&cornell_toml(dir.path()), &[]);
+    let mut loaded = Vec::new();
+    for (name, layout) in [
+        ("ext", Layout::External),
+        ("uri", Layout::DataUri),
+        ("bin", Layout::Binary),
+    ] {
+        let g = doc.write(dir.path(), name, layout);
+        let (s, p) = common::load(&gltf_toml(dir.path(), &g, ""), &[]);
+        assert_eq!(s.tris.len(), obj_scene.tris.len(), "{name}");
+        for (a, b) in s.tris.iter().zip(&obj_scene.tris) {
+            assert_eq!(
+                (a.v0, a.v1, a.v2),
+                (b.v0, b.v1, b.v2),
+                "{name}: the same triangles in the same order"
+            );
+        }
+        assert_eq!(s.report.emitting_triangles, obj_scene.report.emitting_triangles);
+        assert!(s.report.emitting_triangles > 0);
+        assert_eq!(s.light_names, ["spot"]);
+        let (l, m) = (s.lights[0], obj_scene.lights[0]);
+        assert_eq!(
+            (l.kind, l.position, l.direction, l.power),
+            (m.kind, m.position, m.direction, m.power)
+        );
+        assert!((l.cutoff - m.cutoff).abs() < 1e-6 && (l.beam - m.beam).abs() < 1e-6);
+        let (c, d) = (&s.camera, &obj_scene.camera);
+        assert_eq!((c.width, c.height), (d.width, d.height));
+        assert!(c.position.distance(d.position) < 1e-3 && c.forward.distance(d.forward) < 1e-6);
+        assert!(c.up.distance(d.up) < 1e-6 && (c.tan_half - d.tan_half).abs() < 1e-6);
+        assert!(s.report.notes.is_empty(), "{:?}", s.report.notes);
+        loaded.push((s, p));
+    }
+    // One solve each: the glTF (from the .glb) against the OBJ + TOML.
+    let (g_scene, g_params) = &loaded[2];
+    let (h0, s0) = common::solve_cpu(&obj_scene, &params);
+    let (h1, s1) = common::solve_cpu(g_scene, g_params);
+    assert_eq!(h0.nodes.len(), h1.nodes.len(), "the same hierarchy");
+    let d = max_rel_diff(
+        s0.values.direct.iter().flat_map(|v| v.to_array()),
+        s1.values.direct.iter().flat_map(|v| v.to_array()),
+    );
+    let i = max_rel_diff(
+        s0.values.indirect.iter().flat_map(|v| v.to_array()),
+        s1.values.indirect.iter().flat_map(|v| v.to_array()),
+    );
+    assert!(
+        d < 1e-4 && i < 1e-4,
+        "direct differs by {d}, indirect by {i} of the largest value"
+    );
+    let mean = |v: &[glam::Vec4]| v.iter().map(|x| x.x as f64).sum::<f64>() / v.len() as f64;
+    assert!(mean(&s0.values.indirect) > 0.0 && mean(&s0.values.direct) > 0.0);
+}
+
+/// A unit quad in the xz plane (y = 0, facing +y) as two triangles, with uvs.
+fn quad() -> (Vec<f32>, Vec<f32>) {
+    let p = vec![
+        0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 1.0, 1.0, 0.0, 0.0,
+    ];
+    let uv = vec![0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0, 0.0, 1.0, 1.0, 1.0, 0.0];
+    (p, uv)
+}
+
+#[test]
+fn textures_lights_and_node_matrices() {
+    let dir = common::tmpdir();
+    let (p, uv) = quad();
+    let mut d = Doc::default();
+    let pos = d.floats(&p, "VEC3");
+    let tex = d.floats(&uv, "VEC2");
+    let png_view = d.view(&common::gltf::checker_png());
+    let img = d.push("images", json!({"bufferView": png_view, "mimeType": "image/png"}));
+    let sampler = d.push("samplers", json!({"wrapS": 33071, "wrapT": 33648}));
+    let t = d.push("textures", json!({"source": img, "sampler": sampler}));
+    let m = d.push(
+        "materials",
+        json!({"name": "checker", "pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0],
+               "baseColorTexture": {"index": t}}}),
+    );
+    let mesh = d.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": tex}, "material": m}]}),
+    );
+    // The quad, and a mirrored copy (scale -1 in x, moved up): its winding turns back, so
+    // it still faces +y.
+    let a = d.push("nodes", json!({"name": "quad", "mesh": mesh}));
+    let b = d.push(
+        "nodes",
+        json!({"name": "mirror", "mesh": mesh, "translation": [0.0, 2.0, 0.0], "scale": [-1.0, 1.0, 1.0]}),
+    );
+    // A triangle strip of one quad, and a points primitive (not used, named in the note).
+    let strip_pos = d.floats(&[3.0, 0.0, 0.0, 3.0, 0.0, 1.0, 4.0, 0.0, 0.0, 4.0, 0.0, 1.0], "VEC3");
+    let strip = d.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": strip_pos}, "mode": 5},
+                              {"attributes": {"POSITION": strip_pos}, "mode": 0}]}),
+    );
+    let s = d.push("nodes", json!({"name": "strip", "mesh": strip}));
+    // A directional light of 683 lux pointing down (-z turned to -y), a point light.
+    let sun = d.push(
+        "nodes",
+        json!({"matrix": [1, 0, 0, 0,  0, 0, -1, 0,  0, 1, 0, 0,  0, 5, 0, 1],
+               "extensions": {"KHR_lights_punctual": {"light": 0}}}),
+    );
+    let bulb = d.push(
+        "nodes",
+        json!({"name": "bulb", "translation": [0.5, 1.0, 0.5], "extensions": {"KHR_lights_punctual": {"light": 1}}}),
+    );
+    d.json["scenes"][0]["nodes"] = json!([a, b, s, sun, bulb]);
+    d.json["extensionsUsed"] = json!(["KHR_lights_punctual"]);
+    d.json["extensions"] = json!({"KHR_lights_punctual": {"lights": [
+        {"type": "directional", "name": "sun", "intensity": 683.0, "color": [1.0, 0.5, 0.25]},
+        {"type": "point", "intensity": 6830.0, "range": 10.0}
+    ]}});
+    let g = d.write(dir.path(), "t", Layout::Binary);
+    let (scene, _) = common::load(&gltf_toml(dir.path(), &g, ""), &[]);
+
+    // Lights: lux / 683 = W/m², candela / 683 = W/sr; the unnamed light takes its node's name.
+    assert_eq!(scene.light_names, ["sun", "bulb"]);
+    assert_eq!(scene.lights[0].power, [1.0, 0.5, 0.25]);
+    assert_eq!(Vec3::from(scene.lights[0].direction), Vec3::NEG_Y);
+    assert_eq!(scene.lights[1].power, [10.0; 3]);
+    assert_eq!(scene.lights[1].position, [0.5, 1.0, 0.5]);
+    let note = scene.report.notes.join("\n");
+    assert!(
+        note.contains("point and line primitives ×1") && note.contains("light ranges"),
+        "{note}"
+    );
+
+    // Triangles: 2 + 2 mirrored + 2 from the strip, all facing +y.
+    assert_eq!(scene.tris.len(), 6);
+    for t in &scene.tris {
+        let n = meshrad::geom::ray::tri_normal(t);
+        assert!(n.dot(Vec3::Y) > 0.99, "{n}");
+    }
+
+    // Albedo: 0.5 × the texel, glTF's v = 0 at the image's top row. Texel centres at
+    // u, v = 1/4, 3/4 of the plain quad (x = u, z = v).
+    let at = |x: f32, z: f32| {
+        let ray = meshrad::geom::Ray {
+            o: Vec3::new(x, 0.5, z),
+            d: Vec3::NEG_Y,
+        };
+        let hit = scene.intersect(&ray, 1.0).expect("hits the quad");
+        scene.surface(&hit, ray.d).albedo
+    };
+    let close = |a: Vec3, b: Vec3| a.distance(b) < 1e-5;
+    assert!(
+        close(at(0.25, 0.25), Vec3::new(0.5, 0.0, 0.0)),
+        "red at the top left: {}",
+        at(0.25, 0.25)
+    );
+    assert!(
+        close(at(0.75, 0.25), Vec3::new(0.0, 0.5, 0.0)),
+        "green: {}",
+        at(0.75, 0.25)
+    );
+    assert!(
+        close(at(0.25, 0.75), Vec3::new(0.0, 0.0, 0.5)),
+        "blue: {}",
+        at(0.25, 0.75)
+    );
+    assert!(close(at(0.75, 0.75), Vec3::splat(0.5)), "white: {}", at(0.75, 0.75));
+    // Clamp in u: the edge texel up to the quad's edge, no blend with the far column.
+    assert!(
+        close(at(0.999, 0.25), Vec3::new(0.0, 0.5, 0.0)),
+        "clamped: {}",
+        at(0.999, 0.25)
+    );
+    // Mirror in v: at v → 1 the bottom row itself, not wrapped to the top.
+    assert!(
+        close(at(0.25, 0.999), Vec3::new(0.0, 0.0, 0.5)),
+        "mirrored: {}",
+        at(0.25, 0.999)
+    );
+}
+
+#[test]
+fn group_selects_nodes_and_a_missing_one_is_named() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let mut d = one_mesh(&p, [0.5; 3]);
+    d.json["nodes"][0]["name"] = json!("floor");
+    let lifted: Vec<f32> = p.chunks(3).flat_map(|v| [v[0], v[1] + 1.0, v[2]]).collect();
+    let pos = d.floats(&lifted, "VEC3");
+    let mesh = d.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": pos}, "material": 0}]}),
+    );
+    let n = d.push("nodes", json!({"name": "shelf", "mesh": mesh}));
+    d.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(n));
+    let g = d.write(dir.path(), "g", Layout::External);
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, &format!("group = \"shelf\"\n{light}")), &[]);
+    assert_eq!(s.tris.len(), 2);
+    assert!(s.tris.iter().all(|t| t.v0[1] == 1.0));
+    let bad = gltf_toml(dir.path(), &g, &format!("group = \"attic\"\n{light}"));
+    let err = meshrad::Scene::load(&bad, &[]).unwrap_err().to_string();
+    assert!(
+        err.contains("g.gltf") && err.contains("no node `attic`") && err.contains("shelf"),
+        "{err}"
+    );
+}
+
+/// Mutated glTF files load or fail with an error, never a panic: numbers in the JSON
+/// replaced by values that break careless code (indices, counts, offsets, strides, types),
+/// and bytes of a `.glb` overwritten at random. `MESHRAD_FUZZ_SEED` (default 1) picks the
+/// sequence and `MESHRAD_GLTF_CASES` (default 1500) its length.
+#[test]
+fn mutated_gltf_never_panics() {
+    let dir = common::tmpdir();
+    let d = dir.path();
+    let doc = {
+        let mut p = common::gltf::textured_corner(d, "levels = 2\ncoarsest = 8\n");
+        p.set_extension("glb");
+        std::fs::read(&p).unwrap()
+    };
+    let light = "[[light]]\ntype = \"point\"\nposition = [1.0, 1.0, 1.0]\nintensity = [1.0, 1.0, 1.0]\n";
+    std::fs::write(d.join("s.toml"), format!("[[object]]\nmesh = \"m.gltf\"\n{light}")).unwrap();
+    std::fs::write(d.join("b.toml"), format!("[[object]]\nmesh = \"m.glb\"\n{light}")).unwrap();
+    // The same document as JSON text with its buffer beside it.
+    let json_len = u32::from_le_bytes(doc[12..16].try_into().unwrap()) as usize;
+    let mut json: serde_json::Value = serde_json::from_slice(&doc[20..20 + json_len]).unwrap();
+    let bin = doc[20 + json_len + 8..].to_vec();
+    std::fs::write(d.join("m.bin"), &bin).unwrap();
+    json["buffers"] = serde_json::json!([{"uri": "m.bin", "byteLength": bin.len()}]);
+    let text = serde_json::to_string(&json).unwrap();
+    let env = |k: &str, d: u64| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
+    let cases = env("MESHRAD_GLTF_CASES", 1500);
+    let mut state = 0x9e37_79b9_7f4a_7c15u64 ^ env("MESHRAD_FUZZ_SEED", 1).wrapping_mul(0x2545_f491_4f6c_dd1d);
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let weird = [
+        "0",
+        "1",
+        "-1",
+        "2",
+        "3",
+        "4",
+        "5",
+        "7",
+        "12",
+        "255",
+        "65535",
+        "4294967295",
+        "4294967296",
+        "1e30",
+        "-1e30",
+        "0.5",
+        "5120",
+        "5121",
+        "5123",
+        "5125",
+        "5126",
+        "33071",
+        "33648",
+    ];
+    let (mut loaded, mut failed) = (0, 0);
+    for case in 0..cases {
+        let (scene, bytes) = if case % 3 == 2 {
+            let mut b = doc.clone();
+            for _ in 0..1 + next() % 4 {
+                let i = (next() % b.len() as u64) as usize;
+                b[i] = next() as u8;
+            }
+            ("b.toml", b)
+        } else {
+            // Replace one to three numbers of the JSON.
+            let mut t = text.clone();
+            for _ in 0..1 + next() % 3 {
+                let spans: Vec<(usize, usize)> = {
+                    let b = t.as_bytes();
+                    let mut v = Vec::new();
+                    let mut i = 0;
+                    while i < b.len() {
+                        if b[i].is_ascii_digit() && (i == 0 || !b[i - 1].is_ascii_alphanumeric()) {
+                            let s = i;
+                            while i < b.len() && (b[i].is_ascii_digit() || b[i] == b'.' || b[i] == b'e' || b[i] == b'-')
+                            {
+                                i += 1;
+                            }
+                            v.push((s, i));
+                        } else {
+                            i += 1;
+                        }
+                    }
+                    v
+                };
+                let (s, e) = spans[(next() % spans.len() as u64) as usize];
+                let w = weird[(next() % weird.len() as u64) as usize];
+                t.replace_range(s..e, w);
+            }
+            ("s.toml", t.into_bytes())
+        };
+        let target = if scene == "b.toml" { "m.glb" } else { "m.gltf" };
+        std::fs::write(d.join(target), &bytes).unwrap();
+        let path = d.join(scene);
+        let r = std::panic::catch_unwind(|| meshrad::Scene::load(&path, &[]).map(|_| ()));
+        match r {
+            Ok(Ok(())) => loaded += 1,
+            Ok(Err(e)) => {
+                assert!(e.to_string().contains(target), "the error names the file: {e}");
+                failed += 1
+            }
+            Err(_) => {
+                let keep = std::env::temp_dir().join(format!("meshrad-gltf-panic-{case}.{}", &target[2..]));
+                std::fs::write(&keep, &bytes).unwrap();
+                panic!("case {case} panicked; kept as {}", keep.display());
+            }
+        }
+    }
+    eprintln!("mutated glTF: {loaded} loaded, {failed} refused with an error");
+    assert!(loaded > 0 && failed > 0);
+}
