@@ -339,3 +339,170 @@ fn floor_under_the_sky() {
         assert!(v.direct.x < (PI * LE) as f32 && v.direct.x > 0.5 * (PI * LE) as f32);
     }
 }
+
+/// Writes a `w × h` OpenEXR whose pixel `(x, y)` (rows from the top) is `f(x, y)`.
+fn write_exr(path: &std::path::Path, w: usize, h: usize, f: impl Fn(usize, usize) -> [f32; 3] + Sync) {
+    exr::prelude::write_rgb_file(path, w, h, |x, y| {
+        let c = f(x, y);
+        (c[0], c[1], c[2])
+    })
+    .unwrap();
+}
+
+/// A map with structure: a bright patch above the horizon, colours varying by pixel.
+fn patchy(x: usize, y: usize) -> [f32; 3] {
+    let base = [
+        0.2 + 0.05 * (x % 5) as f32,
+        0.3 + 0.04 * (y % 3) as f32,
+        0.1 + 0.03 * ((x + y) % 4) as f32,
+    ];
+    if (5..8).contains(&x) && (1..3).contains(&y) {
+        base.map(|c| c * 40.0)
+    } else {
+        base
+    }
+}
+
+/// `sky_plane`'s scene with `[sky] envmap = "sky.exr"` (and `extra` keys) in place of its
+/// constant radiance.
+fn envmap_plane(dir: &std::path::Path, wall: bool, solver: &str, extra: &str) -> std::path::PathBuf {
+    let path = sky_plane(dir, 4.0, wall, 1.0, solver).unwrap();
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("radiance = [1, 1, 1]", &format!("envmap = \"sky.exr\"\n{extra}")),
+    )
+    .unwrap();
+    path
+}
+
+/// An environment map's direct light on an open floor, both sides, against the map's
+/// irradiance integrated pixel by pixel (`EnvMap::irradiance_unoccluded`), with `scale`
+/// and `rotate`; a constant map gives `π L`; the reference renderer and the solver agree
+/// on the bounce light beside a wall; escaping camera rays see the map.
+#[test]
+fn floor_under_an_envmap() {
+    let dir = common::tmpdir();
+    let (w, h) = (16, 8);
+    write_exr(&dir.path().join("sky.exr"), w, h, patchy);
+    let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 256\nemitter_samples = 4096\n";
+    let path = envmap_plane(dir.path(), false, solver, "scale = 2.0\nrotate = 30.0");
+    let (scene, _) = common::load(&path, &[]);
+    assert!(scene.report.inputs.iter().any(|p| p.ends_with("sky.exr")));
+    let texels: Vec<Vec3> = (0..w * h).map(|i| Vec3::from(patchy(i % w, i / w)) * 2.0).collect();
+    let exact = meshrad::scene::sky::EnvMap::from_texels("m".into(), w, h, texels, 30.0);
+    for (x, n) in [(Vec3::ZERO, Vec3::Y), (Vec3::new(1.5, 0.0, -2.0), -Vec3::Y)] {
+        let want = exact.irradiance_unoccluded(n);
+        let (e, se) = scene.direct_with_error(x, n);
+        println!("floor at {x} facing {n}: {e} ± {se}, exact {want}");
+        for c in 0..3 {
+            assert!(se[c] > 0.0 && se[c] < 0.03 * e[c], "{e} ± {se}");
+            assert!(
+                (e[c] - want[c]).abs() < 4.0 * se[c],
+                "channel {c}: {e} ± {se} vs {want}"
+            );
+        }
+    }
+    // The rotation matters: the same point without it gets another answer.
+    let unturned = envmap_plane(dir.path(), false, solver, "scale = 2.0");
+    let (s0, _) = common::load(&unturned, &[]);
+    let side = Vec3::new(0.0, 0.5, 0.0);
+    let (a, b) = (scene.direct(side, Vec3::X), s0.direct(side, Vec3::X));
+    assert!((a - b).abs().max_element() > 0.05 * a.max_element(), "{a} vs {b}");
+
+    // A constant map: π L on the open floor.
+    write_exr(&dir.path().join("sky.exr"), w, h, |_, _| [1.5, 1.5, 1.5]);
+    let (scene, _) = common::load(&path, &[]);
+    let (e, se) = scene.direct_with_error(Vec3::ZERO, Vec3::Y);
+    let want = PI as f32 * 1.5 * 2.0;
+    assert!((e.x - want).abs() < 4.0 * se.x + 1e-4 * want, "{e} ± {se} vs {want}");
+
+    // The wall's bounce light under the patchy map: solver against reference.
+    write_exr(&dir.path().join("sky.exr"), w, h, patchy);
+    let path = envmap_plane(dir.path(), true, solver, "scale = 2.0\nrotate = 30.0");
+    let (scene, params) = common::load(&path, &[]);
+    let (hier, sol) = common::solve_cpu(&scene, &params);
+    let probes: Vec<meshrad::output::probe::Probe> = [0.3f32, 1.0]
+        .iter()
+        .map(|&d| meshrad::output::probe::Probe {
+            p: Vec3::new(1.0 - d, 0.0, 0.3),
+            n: Vec3::Y,
+        })
+        .collect();
+    let got = meshrad::output::probe::evaluate(&scene, &hier, &sol, &probes, &params);
+    let opts = meshrad::reference::ReferenceOptions {
+        samples: 16384,
+        ..Default::default()
+    };
+    for (i, (q, v)) in probes.iter().zip(&got).enumerate() {
+        let r = meshrad::reference::indirect(&scene, q.p, q.n, &opts, i as u64);
+        let (e, want) = (v.indirect.mean.x as f64, r.mean.x);
+        let se = r.std_err.x.hypot(v.indirect.std_err.x as f64);
+        println!(
+            "floor at {} under the map: solver {e}, reference {want} ± {}",
+            q.p, r.std_err.x
+        );
+        assert!(
+            want > 0.0 && (e - want).abs() < 0.03 * want + 3.0 * se,
+            "at {}: {e} vs {want} ± {se}",
+            q.p
+        );
+    }
+    // Camera rays that leave the scene see the map itself.
+    let img = meshrad::output::image::render(&scene, &hier, &sol, &params, &meshrad::progress::Progress::hidden());
+    let cam = &scene.camera;
+    let mut seen = 0;
+    for y in 0..cam.height {
+        for x in 0..cam.width {
+            let ray = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
+            if scene.intersect(&ray, f32::INFINITY).is_none() {
+                assert_eq!(img.direct[(y * cam.width + x) as usize], scene.sky_radiance(ray.d));
+                seen += 1;
+            }
+        }
+    }
+    assert!(seen > 0);
+}
+
+/// Bad environment maps: a missing file, a pixel that is not a radiance, a file that is
+/// no image, and keys that do not go together.
+#[test]
+fn bad_envmaps_are_named() {
+    let dir = common::tmpdir();
+    let path = envmap_plane(dir.path(), false, TINY, "");
+    let load = |p: &std::path::Path| meshrad::Scene::load(p, &[]).map(|_| ()).unwrap_err().to_string();
+    let e = load(&path);
+    assert!(e.contains("sky.exr"), "missing: {e}");
+    write_exr(&dir.path().join("sky.exr"), 4, 2, |x, y| {
+        if (x, y) == (3, 1) {
+            [f32::NAN, 0.0, 0.0]
+        } else {
+            [1.0; 3]
+        }
+    });
+    let e = load(&path);
+    assert!(e.contains("sky.exr") && e.contains("pixel (3, 1)"), "NaN: {e}");
+    std::fs::write(dir.path().join("sky.exr"), b"not an image").unwrap();
+    let e = load(&path);
+    assert!(e.contains("sky.exr") && e.contains("environment map"), "garbage: {e}");
+    write_exr(&dir.path().join("sky.exr"), 4, 2, |_, _| [1.0; 3]);
+    let text = std::fs::read_to_string(&path).unwrap();
+    for (extra, want) in [("scale = -1.0", "sky.scale"), ("rotate = nan", "sky.rotate")] {
+        std::fs::write(
+            &path,
+            text.replace("envmap = \"sky.exr\"", &format!("envmap = \"sky.exr\"\n{extra}")),
+        )
+        .unwrap();
+        let e = load(&path);
+        assert!(e.contains(want), "{extra}: {e}");
+    }
+    let constant = small_sky(dir.path());
+    let text = std::fs::read_to_string(&constant).unwrap();
+    std::fs::write(
+        &constant,
+        text.replace("radiance = [1, 1, 1]", "radiance = [1, 1, 1]\nscale = 2.0"),
+    )
+    .unwrap();
+    let e = load(&constant);
+    assert!(e.contains("sky.scale") && e.contains("envmap"), "{e}");
+}

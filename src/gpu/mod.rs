@@ -26,6 +26,7 @@ pub fn unsupported(scene: &crate::scene::Scene) -> Option<String> {
     }
     scene
         .sky
+        .as_ref()
         .map(|_| "a [sky]: the sky is not on the GPU backend yet".to_string())
 }
 pub use context::{list_devices, Context, ContextOptions, DeviceInfo};

@@ -63,7 +63,7 @@ pub fn render_with(
                         (d, k * indirect(&s, y * w + x))
                     }
                     // A ray that leaves the scene sees the sky (`[sky]`; black without).
-                    None => (scene.sky_radiance(), Vec3::ZERO),
+                    None => (scene.sky_radiance(ray.d), Vec3::ZERO),
                 };
                 d.push(dv);
                 i.push(iv);

@@ -20,12 +20,20 @@ pub struct SceneFile {
     pub solver: SolverParams,
 }
 
-/// `[sky]`: light from every direction that leaves the scene.
+/// `[sky]`: light from every direction that leaves the scene: exactly one of `radiance`
+/// and `envmap`.
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SkyEntry {
     /// Constant radiance (W/(m²·sr), RGB), as Mitsuba's `constant` emitter.
-    pub radiance: [f32; 3],
+    pub radiance: Option<[f32; 3]>,
+    /// An equirectangular environment map (OpenEXR or Radiance HDR, linear), relative to
+    /// the scene file, as Mitsuba's `envmap` emitter.
+    pub envmap: Option<String>,
+    /// Multiplies the envmap's radiance (default 1).
+    pub scale: Option<f32>,
+    /// Turns the envmap about +y, degrees (default 0).
+    pub rotate: Option<f32>,
 }
 
 /// `[[object]]`: a mesh with an optional rigid transform.

@@ -8,6 +8,7 @@ pub mod gltf_file;
 pub mod light;
 pub mod obj;
 pub mod reach;
+pub mod sky;
 pub mod source;
 pub mod texture;
 
@@ -86,8 +87,8 @@ pub struct Scene {
     pub emission: Vec<Vec3>,
     /// The emitting triangles and how they are sampled.
     pub emitters: emitter::Emitters,
-    /// `[sky]`: constant radiance from every direction that leaves the scene.
-    pub sky: Option<Vec3>,
+    /// `[sky]`: radiance from every direction that leaves the scene.
+    pub sky: Option<sky::Sky>,
     pub lights: Vec<GpuLight>,
     /// Each light's name (`[[light]] name`, default `light<i>`), unique.
     pub light_names: Vec<String>,
@@ -306,19 +307,12 @@ impl Scene {
         let sky = file
             .sky
             .as_ref()
-            .map(|s| {
-                let l = Vec3::from(s.radiance);
-                if !l.is_finite() || l.min_element() < 0.0 {
-                    return Err(Error::SceneValue {
-                        path: path.into(),
-                        key: "sky.radiance".into(),
-                        message: format!("{:?} must be finite and non-negative", s.radiance),
-                    });
-                }
-                Ok(l)
-            })
+            .map(|s| read_sky(s, path, &source, limits))
             .transpose()?
-            .filter(|l| l.max_element() > 0.0);
+            .flatten();
+        if let Some(f) = sky.as_ref().and_then(sky::Sky::file) {
+            b.report.inputs.push(f.to_path_buf());
+        }
         let mut lights = lights;
         if !b.gltf_lights.is_empty() {
             for (object, l) in std::mem::take(&mut b.gltf_lights) {
@@ -569,39 +563,76 @@ impl Scene {
                 f(self.lights.len(), mean, err);
             }
         }
-        if let Some(l) = self.sky {
-            // Cosine-weighted directions (2-D Halton, shifted per point): each one that
-            // leaves the scene adds π L_sky (1/pdf = π/cos), a Bernoulli mean.
-            let (t, b) = crate::geom::sampling::onb(n);
-            let shift = emitter::shift(seed ^ 0x5c1e_5c1e);
-            let mut open = 0usize;
-            for k in 0..count {
-                let h = emitter::halton2(k as u64 + 1);
-                let u = Vec2::new((h[0] + shift[0]).fract() as f32, (h[1] + shift[1]).fract() as f32);
-                let d = crate::geom::sampling::cosine_direction(n, t, b, u, 0.0);
-                open += !self.occluded(&Ray { o, d }, f32::INFINITY) as usize;
+        let sky_index = self.lights.len() + self.emitters.any() as usize;
+        match &self.sky {
+            None => {}
+            Some(sky::Sky::Constant(l)) => {
+                // Cosine-weighted directions (2-D Halton, shifted per point): each one that
+                // leaves the scene adds π L_sky (1/pdf = π/cos), a Bernoulli mean.
+                let (t, b) = crate::geom::sampling::onb(n);
+                let shift = emitter::shift(seed ^ 0x5c1e_5c1e);
+                let mut open = 0usize;
+                for k in 0..count {
+                    let h = emitter::halton2(k as u64 + 1);
+                    let u = Vec2::new((h[0] + shift[0]).fract() as f32, (h[1] + shift[1]).fract() as f32);
+                    let d = crate::geom::sampling::cosine_direction(n, t, b, u, 0.0);
+                    open += !self.occluded(&Ray { o, d }, f32::INFINITY) as usize;
+                }
+                let nf = count.max(1) as f32;
+                let p = open as f32 / nf;
+                let se = if count > 1 {
+                    (p * (1.0 - p) / (nf - 1.0)).sqrt()
+                } else {
+                    0.0
+                };
+                if open > 0 {
+                    let pi = std::f32::consts::PI;
+                    f(sky_index, *l * pi * p, *l * pi * se);
+                }
             }
-            let nf = count.max(1) as f32;
-            let p = open as f32 / nf;
-            let se = if count > 1 {
-                (p * (1.0 - p) / (nf - 1.0)).sqrt()
-            } else {
-                0.0
-            };
-            if open > 0 {
-                let pi = std::f32::consts::PI;
-                f(
-                    self.lights.len() + self.emitters.any() as usize,
-                    l * pi * p,
-                    l * pi * se,
-                );
+            Some(sky::Sky::Map(m)) => {
+                // Directions (2-D Halton, shifted per point) from the even mixture of the
+                // map's luminance and the cosine (the first number picks which, then is
+                // reused): each that faces the point and leaves the scene adds
+                // L cos / pdf with pdf the mixture's (the balance heuristic).
+                let (t, b) = crate::geom::sampling::onb(n);
+                let shift = emitter::shift(seed ^ 0x5c1e_5c1e);
+                let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
+                for k in 0..count {
+                    let h = emitter::halton2(k as u64 + 1);
+                    let u = [(h[0] + shift[0]).fract(), (h[1] + shift[1]).fract()];
+                    let d = if u[0] < 0.5 {
+                        match m.sample([2.0 * u[0], u[1]]) {
+                            Some((d, _, _)) => d,
+                            None => continue,
+                        }
+                    } else {
+                        let v = Vec2::new((2.0 * u[0] - 1.0) as f32, u[1] as f32);
+                        crate::geom::sampling::cosine_direction(n, t, b, v, 0.0)
+                    };
+                    let c = n.dot(d);
+                    if c <= 0.0 {
+                        continue;
+                    }
+                    let pdf = 0.5 * (m.pdf(d) + c as f64 / std::f64::consts::PI);
+                    if !self.occluded(&Ray { o, d }, f32::INFINITY) {
+                        let v = m.radiance(d).as_dvec3() * (c as f64 / pdf);
+                        sum += v;
+                        sum2 += v * v;
+                    }
+                }
+                let (mean, err) = emitter::mean_and_error(sum, sum2, count);
+                if mean.max_element() > 0.0 {
+                    f(sky_index, mean, err);
+                }
             }
         }
     }
 
-    /// The sky's radiance seen along a ray that leaves the scene (zero without a sky).
-    pub fn sky_radiance(&self) -> Vec3 {
-        self.sky.unwrap_or(Vec3::ZERO)
+    /// The sky's radiance seen along a ray of direction `d` that leaves the scene (zero
+    /// without a sky).
+    pub fn sky_radiance(&self, d: Vec3) -> Vec3 {
+        self.sky.as_ref().map_or(Vec3::ZERO, |s| s.radiance(d))
     }
 
     /// The radiance a surface point sends toward the ray that found it by emitting: its
@@ -737,6 +768,51 @@ fn object_transform(scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Res
         message: m,
     })?;
     Ok(t)
+}
+
+/// The `[sky]` table checked and read: `None` for a sky without light.
+fn read_sky(s: &config::SkyEntry, path: &Path, source: &Source, limits: &Limits) -> Result<Option<sky::Sky>> {
+    let err = |key: &str, message: String| Error::SceneValue {
+        path: path.into(),
+        key: format!("sky.{key}"),
+        message,
+    };
+    match (&s.radiance, &s.envmap) {
+        (Some(r), None) => {
+            if s.scale.is_some() || s.rotate.is_some() {
+                let k = if s.scale.is_some() { "scale" } else { "rotate" };
+                return Err(err(k, "applies to an `envmap` only".into()));
+            }
+            let l = Vec3::from(*r);
+            if !l.is_finite() || l.min_element() < 0.0 {
+                return Err(err("radiance", format!("{r:?} must be finite and non-negative")));
+            }
+            Ok((l.max_element() > 0.0).then_some(sky::Sky::Constant(l)))
+        }
+        (None, Some(file)) => {
+            let scale = s.scale.unwrap_or(1.0);
+            if !(scale.is_finite() && scale >= 0.0) {
+                return Err(err("scale", format!("{scale} must be finite and non-negative")));
+            }
+            let rotate = s.rotate.unwrap_or(0.0);
+            if !rotate.is_finite() {
+                return Err(err("rotate", format!("{rotate} must be finite")));
+            }
+            if file.trim().is_empty() {
+                return Err(err("envmap", "is empty: give the map's file".into()));
+            }
+            let expanded = source::expand_scenes_var(file);
+            let rel = expanded.as_deref().unwrap_or(Path::new(file));
+            // The file, its decoded pixels (RGBA f32) and the sampling tables.
+            let m = sky::EnvMap::load(source, rel, scale, rotate, limits.max_memory)?;
+            Ok(m.any().then(|| sky::Sky::Map(Box::new(m))))
+        }
+        (Some(_), Some(_)) => Err(err("envmap", "give `radiance` or `envmap`, not both".into())),
+        (None, None) => Err(err(
+            "radiance",
+            "is missing: give `radiance = [r, g, b]` or `envmap = \"FILE\"`".into(),
+        )),
+    }
 }
 
 /// Moves a glTF light's `[[light]]` table from its file's space to the world by its
