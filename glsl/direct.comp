@@ -1,5 +1,5 @@
-// Kernel `direct`: exact direct irradiance at nodes `first .. first + count` by shadow
-// rays (ALGORITHM.md §2), counting per light the nodes it lights
+// Kernel `direct`: direct irradiance at nodes `first .. first + count` by shadow rays
+// (ALGORITHM.md §2; emitters and sky sampled), counting per source the nodes it lights
 // (counters[LIGHT_COUNTERS + i]).
 // CPU twin: transport::cpu::direct_at_node.
 #version 460
@@ -25,5 +25,11 @@ void main() {
     ObjectInfo ob = g.objects.v[nd.object];
     vec3 x = xform_point(ob.to_world, nd.pos);
     vec3 n = normalize(xform_vector(ob.to_world, nd.normal));
-    g.direct.v[j] = vec4(direct_at(g, x, n, true), 0.0);
+    vec3 se;
+    vec3 e = direct_at(g, x, n, true, node_seed(j), g.emitter_samples, se);
+    g.direct.v[j] = vec4(e, 0.0);
+    // The relative standard error of the sampled part (its mean channel), -1 where
+    // nothing lights the node (transport::cpu direct's `direct_error`).
+    float m = (e.x + e.y + e.z) / 3.0;
+    g.direct_err.v[j] = m > 0.0 ? ((se.x + se.y + se.z) / 3.0) / m : -1.0;
 }

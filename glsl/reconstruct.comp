@@ -53,7 +53,9 @@ void main() {
         }
         vec3 e = vec3(0.0);
         if (pc.exact_direct == 1u) {
-            e = direct_at(g, xform_point(ob.to_world, p), normalize(xform_vector(ob.to_world, n)), false);
+            vec3 se;
+            e = direct_at(g, xform_point(ob.to_world, p), normalize(xform_vector(ob.to_world, n)), false,
+                          hit_seed(integral_node(g, id / n_rays), r), 1u, se);
         } else if (VARIANT == VARIANT_APPROX) {
             e = sender != NONE ? g.unshot.v[sender].xyz : vec3(0.0);
         } else if (side) {

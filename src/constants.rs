@@ -68,6 +68,15 @@ pub const ENERGY_GROUP: u32 = 256;
 /// Stack entries of the GPU's CWBVH traversal; the CWBVH builder keeps within it.
 pub const CWBVH_STACK: u32 = 32;
 /// Specialization constant ids: the variant, whether textures are sampled, the BVH kind.
+/// `Globals::sky_kind`: no sky, a constant one, an environment map.
+pub const SKY_NONE: u32 = 0;
+pub const SKY_CONSTANT: u32 = 1;
+pub const SKY_MAP: u32 = 2;
+/// Up to this many emitting triangles, each receiving point weighs them by the solid
+/// angle they subtend there (`scene::emitter`).
+pub const LOCAL_WEIGHTS: u32 = 64;
+/// Emitting triangles subtending less than this solid angle (sr) are sampled by area.
+pub const SPHERICAL_MIN: f32 = 0.001;
 pub const SPEC_VARIANT: u32 = 0;
 pub const SPEC_TEXTURED: u32 = 1;
 pub const SPEC_BVH_KIND: u32 = 2;

@@ -77,6 +77,20 @@ pub struct TextureInfo {
     pub wrap: u32,
 }
 
+/// An emitting triangle as the kernels read it (`scene::emitter::Emitter` with its
+/// selection probability by power and the running sum of those).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable, PartialEq)]
+pub struct GpuEmitter {
+    pub tri: u32,
+    pub object: u32,
+    pub prob: f32,
+    pub cdf: f32,
+    pub radiance: [f32; 3],
+    /// Luminance of `radiance` (Rec. 709).
+    pub lum: f32,
+}
+
 /// Texture wrap modes ([`TextureInfo::wrap`]).
 pub const WRAP_REPEAT: u32 = 0;
 pub const WRAP_CLAMP: u32 = 1;

@@ -2,8 +2,9 @@
 //! answers known in closed form: the emitting furnace (a closed box whose walls emit and
 //! reflect), a square emitter over a floor (Lambert's polygon formula), a floor under the
 //! sky (`E_d = π L`); the reference renderer on the same, and on a floor with a wall under
-//! the sky; the scenes that have no light at all, and the GPU backend's refusal, as
-//! errors.
+//! the sky; an environment map against its pixel-integrated irradiance; the scenes that
+//! have no light at all and bad maps as errors. The GPU backend against the CPU on the
+//! same sources: `tests/gpu.rs` `emitters_and_sky_solve_as_on_the_cpu`.
 
 mod common;
 
@@ -247,37 +248,6 @@ fn no_light_at_all_is_an_error() {
         let e = meshrad::Scene::load(&path, &[]).unwrap_err().to_string();
         assert!(e.contains(want) && e.contains("sky.toml"), "{bad}: {e}");
     }
-}
-
-/// The GPU backend does not run emitting surfaces yet: a clear error, not a dark image.
-#[test]
-fn gpu_refuses_emitters_clearly() {
-    let dir = common::tmpdir();
-    let path = small_emitter(dir.path());
-    let ctx = std::sync::Arc::new(
-        meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
-            validation: true,
-            device: None,
-        })
-        .expect("a Vulkan device (lavapipe in CI)"),
-    );
-    let refusal = |path: &std::path::Path| {
-        let (scene, params) = common::load(path, &[]);
-        match meshrad::solve(
-            &scene,
-            &params,
-            Some(ctx.clone()),
-            &meshrad::progress::Progress::hidden(),
-        ) {
-            Ok(_) => panic!("the GPU backend ran {}", path.display()),
-            Err(e) => e.to_string(),
-        }
-    };
-    let e = refusal(&path);
-    assert!(e.contains("emitting triangles") && e.contains("--backend cpu"), "{e}");
-    let e = refusal(&small_sky(dir.path()));
-    assert!(e.contains("[sky]") && e.contains("--backend cpu"), "{e}");
-    assert_eq!(ctx.validation_errors(), 0);
 }
 
 /// A floor under a constant sky: `E_d = π L` on either side (every sample escapes: no

@@ -79,13 +79,24 @@ fn kernel_direct_matches_cpu() {
 fn kernels_of_a_gather_match_cpu() {
     // The first bounce reads either the sender level (the paper's transport, every
     // variant) or the exact direct light at the hits (`exact_first_bounce`).
-    let cases = Variant::ALL
-        .map(|v| (v, false))
-        .into_iter()
-        .chain([(Variant::Approx, true)]);
-    for (variant, exact) in cases {
+    // The area-lit box's exact first bounce samples its luminaire at each hit, with the
+    // CPU's sample (the ray's seed).
+    let cases = Variant::ALL.map(|v| (v, false, false)).into_iter().chain([
+        (Variant::Approx, true, false),
+        (Variant::Approx, true, true),
+        (Variant::Original, true, true),
+    ]);
+    for (variant, exact, area) in cases {
         let rays = 32;
-        let (s, mut p) = cornell(4, rays, variant);
+        let (s, mut p) = if area {
+            let (s, mut p) = Scene::embedded_file("cornell_area.toml", &[]).unwrap();
+            p.levels = 4;
+            p.sender_level = 3;
+            p.rays = rays;
+            (s, p)
+        } else {
+            cornell(4, rays, variant)
+        };
         p.exact_first_bounce = exact;
         let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
         let ctx = context();
@@ -99,14 +110,20 @@ fn kernels_of_a_gather_match_cpu() {
         let l0 = h.level_range(0);
         let direct_scale = c.state().0[l0.clone()].iter().map(|v| v.x).sum::<f32>() / l0.len() as f32;
         let unshot_cpu = c.state().1.to_vec();
+        // The luminaire's samples: a shadow ray grazing an edge may go either way on the
+        // two sides (one sample of 64 is 1.6 % of a node's value), at a few nodes only.
+        let mut differ = 0;
         for j in 0..h.nodes.len() {
+            let ok = close(unshot_gpu[j].xyz(), unshot_cpu[j].xyz(), 5e-3, 1e-2);
             assert!(
-                close(unshot_gpu[j].xyz(), unshot_cpu[j].xyz(), 5e-3, 1e-2),
+                ok || (area && close(unshot_gpu[j].xyz(), unshot_cpu[j].xyz(), 0.05, 1e-2)),
                 "{variant:?} unshot (kernel delta / copy) at {j}: {} vs {}",
                 unshot_gpu[j],
                 unshot_cpu[j]
             );
+            differ += !ok as usize;
         }
+        assert!(differ as f64 <= 1e-3 * h.nodes.len() as f64, "{differ} nodes differ");
         let level = 0;
         let n = h.level_range(level).len();
         assert_eq!(g.gather(level as u32, exact).unwrap() as usize, n);
@@ -137,7 +154,8 @@ fn kernels_of_a_gather_match_cpu() {
                         let sf = s.surface(&hh, d);
                         if exact {
                             // A shadow ray grazing an edge may go either way on the two sides.
-                            let want = sf.albedo * s.direct(sf.p, sf.n);
+                            let seed = meshrad::scene::emitter::hit_seed(j as u32, r as u32);
+                            let want = sf.albedo * s.direct_one_seeded(sf.p, sf.n, seed);
                             shadow_differs += !close(gs[k].xyz(), want, 1e-2, 1e-4 * direct_scale) as usize;
                             continue;
                         }
@@ -546,4 +564,106 @@ fn textured_gltf_solves_match_cpu() {
         .skipped
         .iter()
         .any(|s| s.contains("texture sampling compiled out")));
+}
+
+/// Relative RMS of `a` against `b` over the nodes (xyz), and the largest node difference
+/// relative to max(|b|, 1 % of the mean).
+fn compare(a: &[Vec4], b: &[Vec4]) -> (f64, f64) {
+    let mean = b.iter().map(|v| v.xyz().max_element() as f64).sum::<f64>() / b.len().max(1) as f64;
+    let (mut e2, mut r2, mut worst) = (0.0f64, 0.0f64, 0.0f64);
+    for (x, y) in a.iter().zip(b) {
+        let d = (*x - *y).xyz();
+        e2 += (d.length() as f64).powi(2);
+        r2 += (y.xyz().length() as f64).powi(2);
+        let floor = (y.xyz().abs().max_element() as f64).max(0.01 * mean);
+        worst = worst.max(d.abs().max_element() as f64 / floor);
+    }
+    ((e2 / r2.max(1e-300)).sqrt(), worst)
+}
+
+/// Emitting surfaces and the sky on the GPU: the area-lit Cornell box (every variant, the
+/// exact first bounce's direct light at the hits included), a floor and wall under a
+/// constant sky and under an environment map solve as on the CPU, with the same samples
+/// (seeds from node and ray indices) in single precision.
+#[test]
+fn emitters_and_sky_solve_as_on_the_cpu() {
+    let ctx = context();
+    let dir = common::tmpdir();
+    let mut cases: Vec<(String, Scene, SolverParams)> = Vec::new();
+    for variant in Variant::ALL {
+        let (s, mut p) = Scene::embedded_file("cornell_area.toml", &[]).unwrap();
+        p.levels = 4;
+        p.sender_level = 3;
+        p.rays = 32;
+        p.bounces = 2;
+        p.variant = variant;
+        // The delta hierarchy's coefficients turn a refinement decision that flips into
+        // large node differences: its exact first bounce is checked ray by ray in
+        // `kernels_of_a_gather_match_cpu` instead.
+        p.exact_first_bounce = variant != Variant::Original;
+        cases.push((format!("area-lit box, {variant:?}"), s, p));
+    }
+    let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 64\nbounces = 2\n";
+    let sky = meshrad::analytic::sky_plane(dir.path(), 4.0, true, 1.0, solver).unwrap();
+    let (s, p) = common::load(&sky, &[]);
+    cases.push(("constant sky".into(), s, p));
+    let text = std::fs::read_to_string(&sky).unwrap();
+    let map = dir.path().join("map.toml");
+    std::fs::write(
+        &map,
+        text.replace("radiance = [1, 1, 1]", "envmap = \"sky.exr\"\nrotate = 25.0"),
+    )
+    .unwrap();
+    exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 16, 8, |x, y| {
+        let b = if (5..8).contains(&x) && y == 2 { 30.0f32 } else { 1.0 };
+        (0.3 * b, 0.4 * b + 0.01 * x as f32, 0.2 * b + 0.02 * y as f32)
+    })
+    .unwrap();
+    let (s, p) = common::load(&map, &[]);
+    cases.push(("environment map".into(), s, p));
+    for (name, s, p) in &cases {
+        let g = meshrad::solve(s, p, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let c = meshrad::solve(s, p, None, &Progress::hidden()).unwrap();
+        let (gd, cd) = (&g.solution.values.direct, &c.solution.values.direct);
+        let (rms_d, worst_d) = compare(gd, cd);
+        let (rms_i, worst_i) = compare(&g.solution.values.indirect, &c.solution.values.indirect);
+        let (ge, ce) = (
+            g.solution.stats.direct_error.clone().unwrap(),
+            c.solution.stats.direct_error.clone().unwrap(),
+        );
+        eprintln!(
+            "{name}: direct RMS {rms_d:.2e} (worst node {worst_d:.2e}), indirect RMS {rms_i:.2e} (worst {worst_i:.2e}); \
+             direct error GPU {:.3e} CPU {:.3e}",
+            ge.mean_rel_std_err, ce.mean_rel_std_err
+        );
+        assert_eq!(
+            g.solution.stats.nodes_lit_per_light, c.solution.stats.nodes_lit_per_light,
+            "{name}"
+        );
+        assert_eq!(
+            (ge.samples, ge.shadow_rays, ge.lit_nodes),
+            (ce.samples, ce.shadow_rays, ce.lit_nodes),
+            "{name}"
+        );
+        assert!(
+            (ge.mean_rel_std_err - ce.mean_rel_std_err).abs() < 1e-3 * ce.mean_rel_std_err,
+            "{name}"
+        );
+        // The same samples: the direct light within float rounding, but for a shadow ray
+        // that grazes an edge (one sample of 64 is 1.6 % of a node).
+        assert!(rms_d < 1e-3 && worst_d < 0.05, "{name}: direct {rms_d} {worst_d}");
+        // A handful of refinement decisions may flip on such a sample (the oracle is a
+        // threshold): the integrals per level within 1 %, the indirect light within
+        // 0.5 % RMS.
+        for (bg, bc) in g.solution.stats.bounces.iter().zip(&c.solution.stats.bounces) {
+            for (a, b) in bg.integrals_per_level.iter().zip(&bc.integrals_per_level) {
+                assert!(
+                    a.abs_diff(*b) as f64 <= 0.01 * *b as f64,
+                    "{name}: integrals {a} vs {b}"
+                );
+            }
+        }
+        assert!(rms_i < 5e-3, "{name}: indirect {rms_i} (worst node {worst_i})");
+    }
+    assert_eq!(ctx.validation_errors(), 0);
 }

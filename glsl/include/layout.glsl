@@ -40,6 +40,7 @@ struct ObjectInfo {
 };
 struct BvhNode { vec3 lo; float pad0; vec3 hi; float pad1; uint prim_count; uint first_index; uint meta1; uint meta2; };
 struct CwNode { vec3 p; uint e_imask; uint child_base; uint prim_base; uvec2 meta; uvec2 lox; uvec2 hix; uvec2 loy; uvec2 hiy; uvec2 loz; uvec2 hiz; };
+struct GpuEmitter { uint tri; uint object; float prob; float cdf; vec3 radiance; float lum; };
 struct Ray { vec4 o; vec4 d; };
 struct HitRecord { uint object; uint tri; float b1; float b2; };
 
@@ -54,6 +55,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer LightRef { 
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer ObjectRef { ObjectInfo v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer BvhRef { BvhNode v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer CwNodeRef { CwNode v[]; };
+layout(buffer_reference, std430, buffer_reference_align = 16) buffer EmitterRef { GpuEmitter v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer RayRef { Ray v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer HitRef { HitRecord v[]; };
 layout(buffer_reference, std430, buffer_reference_align = 16) buffer Vec4Ref { vec4 v[]; };
@@ -117,6 +119,23 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     uint levels;
     uint sender_level;
     uint link_capacity;
+    EmitterRef emitters;
+    Vec4Ref emitter_points;
+    Vec4Ref sky_texels;
+    FloatRef sky_rows;
+    FloatRef sky_cols;
+    FloatRef sky_prob;
+    FloatRef direct_err;
+    uint num_emitters;
+    uint emitter_samples;
+    uint sky_kind;
+    uint sky_width;
+    uint sky_height;
+    float sky_rotate;
+    float sky_r;
+    float sky_g;
+    float sky_b;
+    uint pad0;
 };
 
 // Push constants are declared by each kernel (its own block, `<Name>Push`, mirrored by

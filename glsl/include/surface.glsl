@@ -130,11 +130,17 @@ bool light_sample(GpuLight l, vec3 x, vec3 n, vec3 o, out vec3 e, out vec3 to_li
     return true;
 }
 
-// Exact direct irradiance at a world-space point (x, n): every light, with a shadow ray.
-// With `count`, each contributing light i adds one to counters[LIGHT_COUNTERS + i].
-vec3 direct_at(GlobalsRef g, vec3 x, vec3 n, bool count) {
+#include "emitters.glsl"
+
+// Direct irradiance at a world-space point (x, n) (Scene::direct): every light exactly,
+// with a shadow ray; the emitting triangles and the sky from `samples` samples shifted by
+// `seed`, with their standard error `se` (zero for the lights). With `count`, each
+// source that reaches the point adds one to counters[LIGHT_COUNTERS + i] (the lights, then
+// the emitters as one, then the sky: Scene::sources).
+vec3 direct_at(GlobalsRef g, vec3 x, vec3 n, bool count, uint64_t seed, uint samples, out vec3 se) {
     vec3 o = offset_origin(x, n, g.scene_scale);
     vec3 e = vec3(0.0);
+    se = vec3(0.0);
     LightRef lights = g.lights;
     for (uint i = 0u; i < g.num_lights; i++) {
         vec3 el;
@@ -144,6 +150,31 @@ vec3 direct_at(GlobalsRef g, vec3 x, vec3 n, bool count) {
             e += el;
             if (count) {
                 atomicAdd(g.counters.v[LIGHT_COUNTERS + i], 1u);
+            }
+        }
+    }
+    uint k = min(samples, g.emitter_samples);
+    uint source = g.num_lights;
+    if (g.num_emitters > 0u) {
+        vec3 s;
+        vec3 v = emitters_direct(g, x, n, o, seed, k, s);
+        if (max(v.x, max(v.y, v.z)) > 0.0) {
+            e += v;
+            se += s;
+            if (count) {
+                atomicAdd(g.counters.v[LIGHT_COUNTERS + source], 1u);
+            }
+        }
+        source++;
+    }
+    if (g.sky_kind != SKY_NONE) {
+        vec3 s;
+        vec3 v = sky_direct(g, x, n, o, seed, k, s);
+        if (max(v.x, max(v.y, v.z)) > 0.0) {
+            e += v;
+            se += s;
+            if (count) {
+                atomicAdd(g.counters.v[LIGHT_COUNTERS + source], 1u);
             }
         }
     }

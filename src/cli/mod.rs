@@ -297,23 +297,14 @@ impl SceneSummary {
     }
 }
 
-/// [`gpu_context`] for `scene`: under `auto`, a scene the GPU backend cannot run yet
-/// (emitting surfaces, a sky) runs on the CPU, with a note; asked for by `--backend gpu`,
-/// the GPU backend's own error says why.
+/// [`gpu_context`] for `scene` (every scene runs on both backends; kept as the one place
+/// a scene could steer the choice).
 pub fn scene_context(
-    scene: &crate::scene::Scene,
+    _scene: &crate::scene::Scene,
     choice: BackendChoice,
     device: Option<&str>,
     quiet: bool,
 ) -> Result<Option<Arc<Context>>> {
-    if choice == BackendChoice::Auto && device.is_none() {
-        if let Some(why) = crate::gpu::unsupported(scene) {
-            if !quiet {
-                eprintln!("note: auto backend: {why}; using the CPU backend");
-            }
-            return Ok(None);
-        }
-    }
     gpu_context(choice, device, quiet)
 }
 

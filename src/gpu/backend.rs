@@ -84,7 +84,13 @@ pub struct GpuBackend<'a> {
     batch: u32,
     /// The active count of the next level to gather, from the last `refine`.
     active_count: u32,
+    /// Light sources (`Scene::sources`): the lights, the emitters as one, the sky.
     lights: usize,
+    /// How many sources are sampled (the emitters, the sky), and with how many samples.
+    sampled_sources: u32,
+    samples: u32,
+    /// The nodes' direct-light sampling error, from the last `direct`.
+    direct_error: Option<crate::transport::DirectError>,
     /// Each object's CWBVH root (its `ObjectInfo::cw_root`).
     cw_roots: Vec<u32>,
     /// The next solve reads the last solve's links ([`GpuBackend::keep_links`]).
@@ -133,14 +139,6 @@ impl GpuResident {
     /// hierarchy (its clips and relations as they are: [`GpuResident::arrange`] computes
     /// them on the device).
     pub fn new(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<GpuResident> {
-        if let Some(why) = super::unsupported(scene) {
-            let key = if scene.emitters.any() { "object" } else { "sky" };
-            return Err(crate::error::Error::SceneValue {
-                path: scene.path.clone(),
-                key: key.into(),
-                message: format!("{why}; run it with --backend cpu"),
-            });
-        }
         let t = Instant::now();
         let spec = specialization(p, scene);
         let k = Kernels::new(ctx, spec)?;
@@ -296,7 +294,10 @@ impl<'a> GpuBackend<'a> {
             res: r.res,
             batch: r.batch,
             active_count: 0,
-            lights: scene.lights.len(),
+            lights: scene.sources(),
+            sampled_sources: scene.emitters.any() as u32 + scene.sky.is_some() as u32,
+            samples: scene.emitters.samples() as u32,
+            direct_error: None,
             cw_roots: r.cw_roots,
             keep_links: false,
             link_base: r.link_base,
@@ -398,7 +399,23 @@ impl Backend for GpuBackend<'_> {
         // A solve starts here: its kernel times start from zero.
         self.prof.clear();
         self.submit(|s, rec| s.direct(rec))?;
+        if self.sampled_sources > 0 {
+            // Each node's relative standard error (-1: unlit).
+            let d: Vec<f32> = self.res.state.direct_err.download(0, self.h.nodes.len())?;
+            let rel: Vec<f64> = d.iter().map(|&v| v as f64).filter(|&r| r >= 0.0).collect();
+            self.direct_error = Some(crate::transport::DirectError {
+                samples: self.samples,
+                shadow_rays: self.h.nodes.len() as u64 * self.samples as u64 * self.sampled_sources as u64,
+                lit_nodes: rel.len() as u64,
+                mean_rel_std_err: rel.iter().sum::<f64>() / rel.len().max(1) as f64,
+                max_rel_std_err: rel.iter().copied().fold(0.0, f64::max),
+            });
+        }
         self.res.state.counters.download(LIGHT_COUNTERS as usize, self.lights)
+    }
+
+    fn direct_error(&self) -> Option<crate::transport::DirectError> {
+        self.direct_error.clone()
     }
 
     fn init_unshot(&mut self) -> Result<()> {

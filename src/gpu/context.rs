@@ -174,6 +174,7 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> D
             instance.get_physical_device_queue_family_properties(pd),
         )
     };
+    let int64 = feats2.features.shader_int64;
     let p = props2.properties;
     let api = p.api_version;
     let local: u64 = mem.memory_heaps[..mem.memory_heap_count as usize]
@@ -187,6 +188,9 @@ fn describe(instance: &ash::Instance, pd: vk::PhysicalDevice, index: usize) -> D
         unusable = Some("Vulkan 1.2 is required".to_string());
     } else if f12.buffer_device_address == vk::FALSE {
         unusable = Some("bufferDeviceAddress is not supported".to_string());
+    } else if int64 == vk::FALSE {
+        // The emitters' and sky's per-point sample shifts are 64-bit hashes (emitters.glsl).
+        unusable = Some("shaderInt64 is not supported".to_string());
     } else if !queues.iter().any(|q| q.queue_flags.contains(vk::QueueFlags::COMPUTE)) {
         unusable = Some("no compute queue".to_string());
     }
@@ -504,7 +508,7 @@ fn open_device(
         .queue_family_index(queue_family)
         .queue_priorities(&priorities)];
     let mut f12 = vk::PhysicalDeviceVulkan12Features::default().buffer_device_address(true);
-    let features = vk::PhysicalDeviceFeatures::default();
+    let features = vk::PhysicalDeviceFeatures::default().shader_int64(true);
     let mut f2 = vk::PhysicalDeviceFeatures2::default()
         .features(features)
         .push_next(&mut f12);

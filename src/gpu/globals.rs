@@ -66,6 +66,32 @@ pub struct Globals {
     pub sender_level: u32,
     /// Link slots (nodes whose rays can keep links; 0: no links).
     pub link_capacity: u32,
+    /// The emitting triangles (`GpuEmitter`) and the base point set of their sampling
+    /// (vec4 per sample: 3-D Halton in bases 2, 3, 5).
+    pub emitters: u64,
+    pub emitter_points: u64,
+    /// An environment map: radiance per pixel (vec4), the rows' running sums, the pixels'
+    /// running sums per row, each pixel's probability (floats).
+    pub sky_texels: u64,
+    pub sky_rows: u64,
+    pub sky_cols: u64,
+    pub sky_prob: u64,
+    /// Per node, the relative standard error of its sampled direct light (-1: unlit).
+    pub direct_err: u64,
+    pub num_emitters: u32,
+    /// Samples per point (`emitter_samples`: emitters and sky).
+    pub emitter_samples: u32,
+    /// `SKY_NONE`, `SKY_CONSTANT` or `SKY_MAP` (`crate::constants`).
+    pub sky_kind: u32,
+    pub sky_width: u32,
+    pub sky_height: u32,
+    /// The map's turn about +y, radians.
+    pub sky_rotate: f32,
+    /// A constant sky's radiance.
+    pub sky_r: f32,
+    pub sky_g: f32,
+    pub sky_b: f32,
+    pub pad0: u32,
 }
 
 /// A ray as the kernels store it (32 bytes).
@@ -78,7 +104,8 @@ pub const CONTRIB_BYTES: u64 = 16;
 pub const LINK_RECORD_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 39 * 8 + 14 * 4);
+    assert!(std::mem::size_of::<Globals>() == 39 * 8 + 14 * 4 + 7 * 8 + 10 * 4);
+    assert!(std::mem::offset_of!(Globals, emitters) == 368);
     assert!(std::mem::offset_of!(Globals, num_objects) == 312);
     assert!(std::mem::offset_of!(Globals, sender_level) == 360);
 };

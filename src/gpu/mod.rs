@@ -16,19 +16,6 @@ pub mod schedule;
 
 pub use backend::GpuBackend;
 
-/// What in `scene` the GPU backend cannot run yet, in words; `None`: all of it.
-pub fn unsupported(scene: &crate::scene::Scene) -> Option<String> {
-    if scene.emitters.any() {
-        return Some(format!(
-            "{} emitting triangles (MTL Ke): emissive surfaces are not on the GPU backend yet",
-            scene.emitters.list.len()
-        ));
-    }
-    scene
-        .sky
-        .as_ref()
-        .map(|_| "a [sky]: the sky is not on the GPU backend yet".to_string())
-}
 pub use context::{list_devices, Context, ContextOptions, DeviceInfo};
 
 use ash::vk;

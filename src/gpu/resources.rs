@@ -42,6 +42,12 @@ pub struct SceneBuffers {
     pub child_offset: Buffer,
     pub children: Buffer,
     pub halton: Buffer,
+    pub emitters: Buffer,
+    pub emitter_points: Buffer,
+    pub sky_texels: Buffer,
+    pub sky_rows: Buffer,
+    pub sky_cols: Buffer,
+    pub sky_prob: Buffer,
 }
 
 /// The compressed wide BVH of every object, for `bvh = "cwbvh"`: built here, by the GPU
@@ -85,6 +91,11 @@ impl SceneBuffers {
         for (info, &root) in objects.iter_mut().zip(&cw.roots) {
             info.cw_root = root;
         }
+        let (emitters, points) = scene.emitters.gpu_tables();
+        let sky = match &scene.sky {
+            Some(crate::scene::sky::Sky::Map(m)) => m.gpu_tables(),
+            _ => Default::default(),
+        };
         Ok(SceneBuffers {
             tris: Buffer::upload(ctx, "triangles", &scene.tris[..])?,
             uvs: Buffer::upload(ctx, "uvs", &scene.uvs[..])?,
@@ -106,7 +117,20 @@ impl SceneBuffers {
             child_offset: Buffer::upload(ctx, "child offsets", &h.child_offset[..])?,
             children: Buffer::upload(ctx, "children", &h.children[..])?,
             halton: Buffer::upload(ctx, "halton", &halton_table(p.rays)[..])?,
+            emitters: Buffer::upload(ctx, "emitters", &emitters[..])?,
+            emitter_points: Buffer::upload(ctx, "emitter points", &points[..])?,
+            sky_texels: Buffer::upload(ctx, "sky texels", &sky.0[..])?,
+            sky_rows: Buffer::upload(ctx, "sky rows", &sky.1[..])?,
+            sky_cols: Buffer::upload(ctx, "sky columns", &sky.2[..])?,
+            sky_prob: Buffer::upload(ctx, "sky probabilities", &sky.3[..])?,
         })
+    }
+
+    /// Uploads the emitters' table again (their probabilities change when objects move).
+    pub fn upload_emitters(&mut self, ctx: &Arc<Context>, scene: &Scene) -> Result<u64> {
+        let (emitters, _) = scene.emitters.gpu_tables();
+        self.emitters = Buffer::upload(ctx, "emitters", &emitters[..])?;
+        Ok(self.emitters.size)
     }
 
     /// Bytes uploaded.
@@ -132,6 +156,12 @@ impl SceneBuffers {
             &self.child_offset,
             &self.children,
             &self.halton,
+            &self.emitters,
+            &self.emitter_points,
+            &self.sky_texels,
+            &self.sky_rows,
+            &self.sky_cols,
+            &self.sky_prob,
         ]
         .iter()
         .map(|b| b.size)
@@ -142,6 +172,8 @@ impl SceneBuffers {
 /// Per-node state, resident for the whole solve (vec4 per node unless noted).
 pub struct NodeState {
     pub direct: Buffer,
+    /// Per node (f32): the relative standard error of its sampled direct light.
+    pub direct_err: Buffer,
     pub unshot: Buffer,
     pub next: Buffer,
     pub indirect: Buffer,
@@ -236,6 +268,7 @@ impl Resources {
         let links = link_capacity(ctx, p, n);
         let state = NodeState {
             direct: z("direct", vec4_bytes(n))?,
+            direct_err: z("direct error", (n * 4) as u64)?,
             unshot: z("unshot", vec4_bytes(n))?,
             next: z("next", vec4_bytes(n))?,
             indirect: z("indirect", vec4_bytes(n))?,
@@ -245,7 +278,7 @@ impl Resources {
             active_flag: z("active flags", (n * 4) as u64)?,
             child_flag: z("child flags", (n * 4) as u64)?,
             active_list: z("active", (largest_level.max(1) * 4) as u64)?,
-            counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.lights.len() as u64))?,
+            counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.sources() as u64))?,
             energy: z("energy", 4 * ENERGY_SLOTS as u64)?,
             link_slot: device("link slots", (n * 4) as u64)?,
             links: device("links", links as u64 * p.rays as u64 * LINK_RECORD_BYTES)?,
@@ -307,7 +340,7 @@ impl Resources {
             info.cw_root = root;
         }
         self.scene.objects = Buffer::upload(ctx, "objects", &objects[..])?;
-        Ok(self.scene.objects.size)
+        Ok(self.scene.objects.size + self.scene.upload_emitters(ctx, scene)?)
     }
 
     /// Uploads the hierarchy's clips (when they were not computed on the device).
@@ -341,6 +374,12 @@ fn globals(
     h: &Hierarchy,
     p: &SolverParams,
 ) -> Globals {
+    use crate::constants::{SKY_CONSTANT, SKY_MAP, SKY_NONE};
+    use crate::scene::sky::Sky;
+    let sky_l = match &scene.sky {
+        Some(Sky::Constant(l)) => *l,
+        _ => glam::Vec3::ZERO,
+    };
     Globals {
         tris: s.tris.address,
         uvs: s.uvs.address,
@@ -395,5 +434,39 @@ fn globals(
         levels: h.levels,
         sender_level: p.sender_level,
         link_capacity: st.link_capacity,
+        emitters: s.emitters.address,
+        emitter_points: s.emitter_points.address,
+        sky_texels: s.sky_texels.address,
+        sky_rows: s.sky_rows.address,
+        sky_cols: s.sky_cols.address,
+        sky_prob: s.sky_prob.address,
+        direct_err: st.direct_err.address,
+        num_emitters: if scene.emitters.any() {
+            scene.emitters.list.len() as u32
+        } else {
+            0
+        },
+        emitter_samples: scene.emitters.samples() as u32,
+        sky_kind: match &scene.sky {
+            None => SKY_NONE,
+            Some(Sky::Constant(_)) => SKY_CONSTANT,
+            Some(Sky::Map(_)) => SKY_MAP,
+        },
+        sky_width: match &scene.sky {
+            Some(Sky::Map(m)) => m.width as u32,
+            _ => 0,
+        },
+        sky_height: match &scene.sky {
+            Some(Sky::Map(m)) => m.height as u32,
+            _ => 0,
+        },
+        sky_rotate: match &scene.sky {
+            Some(Sky::Map(m)) => m.rotate(),
+            _ => 0.0,
+        },
+        sky_r: sky_l.x,
+        sky_g: sky_l.y,
+        sky_b: sky_l.z,
+        pad0: 0,
     }
 }

@@ -4,8 +4,8 @@
 //! point is estimated by sampling them: `emitter_samples` samples from a 3-D Halton set
 //! shifted per receiving point (so the estimate is deterministic and the same however the
 //! work is split), each a triangle and a direction uniform in its solid angle, with a
-//! shadow ray, and the standard error of the mean ([`Emitters::for_each_sample`]). Not
-//! yet on the GPU backend.
+//! shadow ray, and the standard error of the mean ([`Emitters::for_each_sample`]). GLSL
+//! twin: `glsl/include/emitters.glsl`.
 
 use glam::{DVec3, Vec2, Vec3};
 
@@ -80,6 +80,24 @@ fn radical_inverse(mut i: u64, base: u64) -> f64 {
         i /= base;
     }
     r
+}
+
+/// The sample sets' shift for a point known only by where it is (probe points, pixels,
+/// reference path vertices): a function of its position and normal bits.
+pub fn point_seed(x: Vec3, n: Vec3) -> u64 {
+    let bits = |v: Vec3| (v.x.to_bits() as u64) << 32 ^ (v.y.to_bits() as u64) << 16 ^ v.z.to_bits() as u64;
+    mix64(bits(x)) ^ bits(n)
+}
+
+/// The sample sets' shift for node `j`'s direct light (CPU and kernels alike).
+pub fn node_seed(j: u32) -> u64 {
+    mix64(j as u64 ^ 0xd1ec_0000_0000_0000)
+}
+
+/// The sample's shift for the direct light at ray `r` of node `j`'s gathering integral
+/// (the exact first bounce; CPU and kernels alike).
+pub fn hit_seed(j: u32, r: u32) -> u64 {
+    mix64((j as u64) << 32 | r as u64)
 }
 
 /// A 64-bit mix (splitmix64's finaliser).
@@ -179,6 +197,30 @@ impl Emitters {
         self.points.len()
     }
 
+    /// The kernels' tables: the emitters with their probabilities, and the base point set
+    /// (x, y, z; w unused).
+    pub fn gpu_tables(&self) -> (Vec<crate::layout::GpuEmitter>, Vec<[f32; 4]>) {
+        let list = self
+            .list
+            .iter()
+            .enumerate()
+            .map(|(k, e)| crate::layout::GpuEmitter {
+                tri: e.tri,
+                object: e.object,
+                prob: self.prob[k] as f32,
+                cdf: self.cdf[k] as f32,
+                radiance: e.radiance.into(),
+                lum: luminance(e.radiance) as f32,
+            })
+            .collect();
+        let points = self
+            .points
+            .iter()
+            .map(|p| [p[0] as f32, p[1] as f32, p[2] as f32, 0.0])
+            .collect();
+        (list, points)
+    }
+
     /// Calls `f` with the first `count` samples for the receiving point `(x, n)` (world
     /// space; `o` the shadow rays' origin, `seed` the point's shift of the base set), the
     /// zero ones included (they count in the mean).
@@ -272,7 +314,16 @@ fn sample_triangle(
     if ne.dot(x - v[0]) <= 0.0 {
         return None;
     }
-    let (y, weight) = match spherical_triangle(x, v, u) {
+    // Below `SPHERICAL_MIN` steradians, a point by area: the 1/r² that makes area
+    // sampling noisy near an emitter varies little over a triangle this small, and the
+    // spherical construction's angle sums lose their precision in single precision (the
+    // kernels' twin).
+    let spherical = if solid_angle(x, v) >= SPHERICAL_MIN {
+        spherical_triangle(x, v, u)
+    } else {
+        None
+    };
+    let (y, weight) = match spherical {
         // Uniform in the solid angle: 1/pdf = Ω; the point where the direction meets
         // the triangle's plane.
         Some((w, omega)) => {
@@ -306,9 +357,12 @@ fn sample_triangle(
     })
 }
 
+/// Triangles subtending less than this solid angle (sr) are sampled by area.
+pub const SPHERICAL_MIN: f64 = crate::constants::SPHERICAL_MIN as f64;
+
 /// Up to this many emitting triangles, each receiving point weighs them by the solid
 /// angle they subtend there.
-pub const LOCAL_WEIGHTS: usize = 64;
+pub const LOCAL_WEIGHTS: usize = crate::constants::LOCAL_WEIGHTS as usize;
 
 /// Solid angle of triangle `v` seen from `x` (Van Oosterom & Strackee 1983).
 pub fn solid_angle(x: DVec3, v: &[DVec3; 3]) -> f64 {

@@ -483,7 +483,7 @@ impl Scene {
     /// [`Scene::direct`] and its standard error (the emitters' sampling; lights are exact).
     pub fn direct_with_error(&self, x: Vec3, n: Vec3) -> (Vec3, Vec3) {
         let (mut e, mut se) = (Vec3::ZERO, Vec3::ZERO);
-        self.direct_sources(x, n, self.emitters.samples(), |_, v, s| {
+        self.direct_sources(x, n, self.emitters.samples(), emitter::point_seed(x, n), |_, v, s| {
             e += v;
             se += s;
         });
@@ -494,7 +494,7 @@ impl Scene {
     /// hit or a reference path's vertex, whose means average many such estimates.
     pub fn direct_one(&self, x: Vec3, n: Vec3) -> Vec3 {
         let mut e = Vec3::ZERO;
-        self.direct_sources(x, n, 1, |_, v, _| e += v);
+        self.direct_sources(x, n, 1, emitter::point_seed(x, n), |_, v, _| e += v);
         e
     }
 
@@ -518,17 +518,33 @@ impl Scene {
     /// Calls `f(source index, irradiance)` for each source that reaches `(x, n)`
     /// ([`Scene::sources`]; the emitters with `emitter_samples` shadow rays).
     pub fn direct_each(&self, x: Vec3, n: Vec3, mut f: impl FnMut(usize, Vec3)) {
-        self.direct_sources(x, n, self.emitters.samples(), |i, v, _| f(i, v));
+        self.direct_sources(x, n, self.emitters.samples(), emitter::point_seed(x, n), |i, v, _| {
+            f(i, v)
+        });
     }
 
     /// [`Scene::direct_each`] with each source's standard error (zero for the lights).
     pub fn direct_each_with_error(&self, x: Vec3, n: Vec3, f: impl FnMut(usize, Vec3, Vec3)) {
-        self.direct_sources(x, n, self.emitters.samples(), f);
+        self.direct_sources(x, n, self.emitters.samples(), emitter::point_seed(x, n), f);
+    }
+
+    /// [`Scene::direct_each_with_error`] with the sample sets shifted by `seed` (a node's
+    /// [`emitter::node_seed`]: the GPU kernels draw the same samples).
+    pub fn direct_each_seeded(&self, x: Vec3, n: Vec3, seed: u64, f: impl FnMut(usize, Vec3, Vec3)) {
+        self.direct_sources(x, n, self.emitters.samples(), seed, f);
+    }
+
+    /// [`Scene::direct_one`] with the sample shifted by `seed` (a gathering ray's
+    /// [`emitter::hit_seed`]).
+    pub fn direct_one_seeded(&self, x: Vec3, n: Vec3, seed: u64) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        self.direct_sources(x, n, 1, seed, |_, v, _| e += v);
+        e
     }
 
     /// [`Scene::direct_each`] with `samples` emitter samples, and each source's standard
     /// error.
-    fn direct_sources(&self, x: Vec3, n: Vec3, samples: usize, mut f: impl FnMut(usize, Vec3, Vec3)) {
+    fn direct_sources(&self, x: Vec3, n: Vec3, samples: usize, seed: u64, mut f: impl FnMut(usize, Vec3, Vec3)) {
         let o = self.offset(x, n);
         for (i, l) in self.lights.iter().enumerate() {
             if let Some(s) = light::light_sample(l, x, n, o) {
@@ -541,9 +557,6 @@ impl Scene {
         if !self.emitters.any() && self.sky.is_none() {
             return;
         }
-        // The point's own shift of the sample sets: a function of where it is.
-        let bits = |v: Vec3| (v.x.to_bits() as u64) << 32 ^ (v.y.to_bits() as u64) << 16 ^ v.z.to_bits() as u64;
-        let seed = emitter::mix64(bits(x)) ^ bits(n);
         let count = samples.min(self.emitters.samples());
         if self.emitters.any() {
             let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);

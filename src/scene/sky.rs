@@ -165,6 +165,22 @@ impl EnvMap {
         }
     }
 
+    /// The kernels' tables: radiance per pixel (w unused), the rows' running sums, the
+    /// pixels' running sums within their row, and each pixel's probability.
+    pub fn gpu_tables(&self) -> (Vec<[f32; 4]>, Vec<f32>, Vec<f32>, Vec<f32>) {
+        (
+            self.texels.iter().map(|t| [t.x, t.y, t.z, 0.0]).collect(),
+            self.row_cdf.iter().map(|&c| c as f32).collect(),
+            self.col_cdf.iter().map(|&c| c as f32).collect(),
+            self.prob.iter().map(|&c| c as f32).collect(),
+        )
+    }
+
+    /// The turn about `+y`, radians.
+    pub fn rotate(&self) -> f32 {
+        self.rotate as f32
+    }
+
     /// Whether any pixel has radiance.
     pub fn any(&self) -> bool {
         self.row_cdf.last().is_some_and(|&c| c > 0.0)

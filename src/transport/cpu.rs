@@ -39,7 +39,7 @@ pub fn node_world(scene: &Scene, h: &Hierarchy, j: usize) -> (Vec3, Vec3) {
 pub fn direct_at_node(scene: &Scene, h: &Hierarchy, j: usize, lit: &mut [bool]) -> (Vec3, Vec3) {
     let (x, n) = node_world(scene, h, j);
     let (mut e, mut se) = (Vec3::ZERO, Vec3::ZERO);
-    scene.direct_each_with_error(x, n, |i, v, s| {
+    scene.direct_each_seeded(x, n, crate::scene::emitter::node_seed(j as u32), |i, v, s| {
         lit[i] = true;
         e += v;
         se += s;
@@ -144,7 +144,7 @@ fn trace_integral(
             linked = Some(node);
         }
         let e = if exact_direct {
-            scene.direct_one(s.p, s.n)
+            scene.direct_one_seeded(s.p, s.n, crate::scene::emitter::hit_seed(j as u32, r as u32))
         } else if let Some(node) = linked {
             node.map_or(Vec3::ZERO, |i| unshot[i].xyz())
         } else {
