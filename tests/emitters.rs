@@ -250,6 +250,46 @@ fn no_light_at_all_is_an_error() {
     }
 }
 
+/// The solver's bounce light on the floor at distances `dists` from the wall of
+/// `sky_plane(…, wall = true, …)` (probe, final gather) against the reference renderer's:
+/// within 3 % and 3 combined standard errors. Returns the probe values.
+fn floor_beside_wall_vs_reference(
+    scene: &meshrad::Scene,
+    h: &meshrad::Hierarchy,
+    sol: &meshrad::Solution,
+    params: &meshrad::SolverParams,
+    dists: &[f32],
+    what: &str,
+) -> Vec<meshrad::output::probe::ProbeValue> {
+    let probes: Vec<meshrad::output::probe::Probe> = dists
+        .iter()
+        .map(|&d| meshrad::output::probe::Probe {
+            p: Vec3::new(1.0 - d, 0.0, 0.3),
+            n: Vec3::Y,
+        })
+        .collect();
+    let got = meshrad::output::probe::evaluate(scene, h, sol, &probes, params);
+    let opts = meshrad::reference::ReferenceOptions {
+        samples: 16384,
+        ..Default::default()
+    };
+    for (i, (q, v)) in probes.iter().zip(&got).enumerate() {
+        let r = meshrad::reference::indirect(scene, q.p, q.n, &opts, i as u64);
+        let (e, want) = (v.indirect.mean.x as f64, r.mean.x);
+        let se = r.std_err.x.hypot(v.indirect.std_err.x as f64);
+        println!(
+            "floor at {}{what}: solver {e} ± {}, reference {want} ± {}",
+            q.p, v.indirect.std_err.x, r.std_err.x
+        );
+        assert!(
+            want > 0.0 && (e - want).abs() < 0.03 * want + 3.0 * se,
+            "at {}{what}: {e} vs {want} ± {se}",
+            q.p
+        );
+    }
+    got
+}
+
 /// A floor under a constant sky: `E_d = π L` on either side (every sample escapes: no
 /// error); with a wall beside it, the wall's bounce light on the floor
 /// against the reference renderer's.
@@ -280,31 +320,8 @@ fn floor_under_the_sky() {
         de.lit_nodes > 0 && de.mean_rel_std_err > 0.0 && de.shadow_rays > 0,
         "{de:?}"
     );
-    let probes: Vec<meshrad::output::probe::Probe> = [0.2f32, 0.5, 1.0, 2.0]
-        .iter()
-        .map(|&d| meshrad::output::probe::Probe {
-            p: Vec3::new(1.0 - d, 0.0, 0.3),
-            n: Vec3::Y,
-        })
-        .collect();
-    let got = meshrad::output::probe::evaluate(&scene, &h, &sol, &probes, &params);
-    let opts = meshrad::reference::ReferenceOptions {
-        samples: 16384,
-        ..Default::default()
-    };
-    for (i, (q, v)) in probes.iter().zip(&got).enumerate() {
-        let r = meshrad::reference::indirect(&scene, q.p, q.n, &opts, i as u64);
-        let (e, want) = (v.indirect.mean.x as f64, r.mean.x);
-        let se = r.std_err.x.hypot(v.indirect.std_err.x as f64);
-        println!(
-            "floor at {}: solver {e} ± {}, reference {want} ± {}",
-            q.p, v.indirect.std_err.x, r.std_err.x
-        );
-        assert!(
-            want > 0.0 && (e - want).abs() < 0.03 * want + 3.0 * se,
-            "at {}: {e} vs {want} ± {se}",
-            q.p
-        );
+    let got = floor_beside_wall_vs_reference(&scene, &h, &sol, &params, &[0.2, 0.5, 1.0, 2.0], "");
+    for v in got {
         // The direct light: the wall hides part of the sky.
         assert!(v.direct.x < (PI * LE) as f32 && v.direct.x > 0.5 * (PI * LE) as f32);
     }
@@ -392,32 +409,7 @@ fn floor_under_an_envmap() {
     let path = envmap_plane(dir.path(), true, solver, "scale = 2.0\nrotate = 30.0");
     let (scene, params) = common::load(&path, &[]);
     let (hier, sol) = common::solve_cpu(&scene, &params);
-    let probes: Vec<meshrad::output::probe::Probe> = [0.3f32, 1.0]
-        .iter()
-        .map(|&d| meshrad::output::probe::Probe {
-            p: Vec3::new(1.0 - d, 0.0, 0.3),
-            n: Vec3::Y,
-        })
-        .collect();
-    let got = meshrad::output::probe::evaluate(&scene, &hier, &sol, &probes, &params);
-    let opts = meshrad::reference::ReferenceOptions {
-        samples: 16384,
-        ..Default::default()
-    };
-    for (i, (q, v)) in probes.iter().zip(&got).enumerate() {
-        let r = meshrad::reference::indirect(&scene, q.p, q.n, &opts, i as u64);
-        let (e, want) = (v.indirect.mean.x as f64, r.mean.x);
-        let se = r.std_err.x.hypot(v.indirect.std_err.x as f64);
-        println!(
-            "floor at {} under the map: solver {e}, reference {want} ± {}",
-            q.p, r.std_err.x
-        );
-        assert!(
-            want > 0.0 && (e - want).abs() < 0.03 * want + 3.0 * se,
-            "at {}: {e} vs {want} ± {se}",
-            q.p
-        );
-    }
+    floor_beside_wall_vs_reference(&scene, &hier, &sol, &params, &[0.3, 1.0], " under the map");
     // Camera rays that leave the scene see the map itself.
     let img = meshrad::output::image::render(&scene, &hier, &sol, &params, &meshrad::progress::Progress::hidden());
     let cam = &scene.camera;

@@ -27,7 +27,7 @@ use ::gltf::mesh::Mode;
 use ::gltf::texture::WrappingMode;
 use glam::{Mat4, Vec3};
 
-use super::obj::{is_degenerate, LoadedMesh, MtlData};
+use super::obj::{keep, LoadedMesh, MtlData};
 use super::source::Source;
 use crate::error::{Error, Result};
 use crate::layout::{Tri, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
@@ -563,14 +563,7 @@ impl Walk<'_> {
                 material,
                 ..Default::default()
             };
-            if is_degenerate(&tri) {
-                self.out.mesh.degenerate += 1;
-                continue;
-            }
-            let mut key = [tri.v0, tri.v1, tri.v2].map(|v| v.map(f32::to_bits));
-            key.sort_unstable();
-            if !self.seen.insert(key) {
-                self.out.mesh.duplicates += 1;
+            if !keep(&tri, &mut self.seen, &mut self.out.mesh) {
                 continue;
             }
             self.out.mesh.tris.push(tri);

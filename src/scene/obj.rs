@@ -243,14 +243,7 @@ fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
                 material,
                 ..Default::default()
             };
-            if is_degenerate(&tri) {
-                out.degenerate += 1;
-                continue;
-            }
-            let mut key = [tri.v0, tri.v1, tri.v2].map(|v| v.map(f32::to_bits));
-            key.sort_unstable();
-            if !seen.insert(key) {
-                out.duplicates += 1;
+            if !keep(&tri, &mut seen, out) {
                 continue;
             }
             out.tris.push(tri);
@@ -573,6 +566,22 @@ fn map_options<'a>(args: &[&'a str]) -> std::result::Result<MapKd<'a>, String> {
         return Err("map_Kd option `-s` must not scale by 0".into());
     }
     Ok((args[k..].join(" "), o, s, ignored))
+}
+
+/// Whether `tri` joins `out`: not degenerate, and not an exact copy (the same three
+/// corners) of a triangle in `seen`; a dropped one is counted in `out`.
+pub(super) fn keep(tri: &Tri, seen: &mut std::collections::HashSet<[[u32; 3]; 3]>, out: &mut LoadedMesh) -> bool {
+    if is_degenerate(tri) {
+        out.degenerate += 1;
+        return false;
+    }
+    let mut key = [tri.v0, tri.v1, tri.v2].map(|v| v.map(f32::to_bits));
+    key.sort_unstable();
+    if !seen.insert(key) {
+        out.duplicates += 1;
+        return false;
+    }
+    true
 }
 
 /// Zero-area (to float precision) or non-finite triangles.
