@@ -162,7 +162,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         }
     }
     output::check_outputs(&planned, &inputs)?;
-    let ctx = super::scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let ctx = super::gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let mut ed = Editor::new(scene, params, ctx, &progress)?;
     if !a.solver.quiet {
         eprintln!(
@@ -367,7 +367,7 @@ pub fn session(a: SessionArgs) -> Result<()> {
     let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, true);
     let params = edit::editing_params(&params, "session")?;
-    let ctx = super::scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), true)?;
+    let ctx = super::gpu_context(a.solver.backend, a.solver.device.as_deref(), true)?;
     let inputs = scene.report.inputs.clone();
     let ed = Editor::new(scene, params, ctx, &progress)?;
     let mut s = Session {

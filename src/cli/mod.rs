@@ -297,17 +297,6 @@ impl SceneSummary {
     }
 }
 
-/// [`gpu_context`] for `scene` (every scene runs on both backends; kept as the one place
-/// a scene could steer the choice).
-pub fn scene_context(
-    _scene: &crate::scene::Scene,
-    choice: BackendChoice,
-    device: Option<&str>,
-    quiet: bool,
-) -> Result<Option<Arc<Context>>> {
-    gpu_context(choice, device, quiet)
-}
-
 /// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
 /// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
 /// backend is faster, so `auto` takes the CPU there, and says why on stderr.
@@ -450,7 +439,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         planned.push(("--export-nodes", p.clone()));
     }
     output::check_outputs(&planned, &scene.report.inputs)?;
-    let ctx = scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
@@ -518,7 +507,7 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
         inputs.push(a.points.clone());
         output::check_outputs(&[("--out", p.clone())], &inputs)?;
     }
-    let ctx = scene_context(&scene, a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
+    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
     let run = crate::solve(&scene, &params, ctx, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);

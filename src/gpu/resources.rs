@@ -376,9 +376,11 @@ fn globals(
 ) -> Globals {
     use crate::constants::{SKY_CONSTANT, SKY_MAP, SKY_NONE};
     use crate::scene::sky::Sky;
-    let sky_l = match &scene.sky {
-        Some(Sky::Constant(l)) => *l,
-        _ => glam::Vec3::ZERO,
+    // (kind, constant radiance, map width, height, turn)
+    let (sky_kind, sky_l, sky_width, sky_height, sky_rotate) = match &scene.sky {
+        None => (SKY_NONE, glam::Vec3::ZERO, 0, 0, 0.0),
+        Some(Sky::Constant(l)) => (SKY_CONSTANT, *l, 0, 0, 0.0),
+        Some(Sky::Map(m)) => (SKY_MAP, glam::Vec3::ZERO, m.width as u32, m.height as u32, m.rotate()),
     };
     Globals {
         tris: s.tris.address,
@@ -447,23 +449,10 @@ fn globals(
             0
         },
         emitter_samples: scene.emitters.samples() as u32,
-        sky_kind: match &scene.sky {
-            None => SKY_NONE,
-            Some(Sky::Constant(_)) => SKY_CONSTANT,
-            Some(Sky::Map(_)) => SKY_MAP,
-        },
-        sky_width: match &scene.sky {
-            Some(Sky::Map(m)) => m.width as u32,
-            _ => 0,
-        },
-        sky_height: match &scene.sky {
-            Some(Sky::Map(m)) => m.height as u32,
-            _ => 0,
-        },
-        sky_rotate: match &scene.sky {
-            Some(Sky::Map(m)) => m.rotate(),
-            _ => 0.0,
-        },
+        sky_kind,
+        sky_width,
+        sky_height,
+        sky_rotate,
         sky_r: sky_l.x,
         sky_g: sky_l.y,
         sky_b: sky_l.z,

@@ -204,6 +204,16 @@ impl EnvMap {
         self.texels[self.pixel(d.as_dvec3())]
     }
 
+    /// The world direction at map coordinates `(u, v)` ∈ [0, 1]² (map space: u =
+    /// atan2(x, −z) / 2π, v = acos(y) / π; turned by `R_y(rotate)`), and its sin θ.
+    fn direction(&self, u: f64, v: f64) -> (DVec3, f64) {
+        let (theta, phi) = (std::f64::consts::PI * v, std::f64::consts::TAU * u);
+        let sin_t = theta.sin();
+        let m = DVec3::new(phi.sin() * sin_t, theta.cos(), -phi.cos() * sin_t);
+        let (s, c) = self.rotate.sin_cos();
+        (DVec3::new(c * m.x + s * m.z, m.y, -s * m.x + c * m.z), sin_t)
+    }
+
     /// A world direction drawn by the map's luminance from two uniform numbers, its
     /// radiance and its density per solid angle; `None` where the density is zero.
     pub fn sample(&self, u: [f64; 2]) -> Option<(Vec3, Vec3, f64)> {
@@ -217,21 +227,13 @@ impl EnvMap {
         if p <= 0.0 {
             return None;
         }
-        let (mu, mv) = (
+        let (d, sin_t) = self.direction(
             (col as f64 + fu) / self.width as f64,
             (row as f64 + fv) / self.height as f64,
         );
-        let theta = std::f64::consts::PI * mv;
-        let phi = std::f64::consts::TAU * mu;
-        let sin_t = theta.sin();
         if sin_t <= 0.0 {
             return None;
         }
-        // Map space: u = atan2(x, −z) / 2π, v = acos(y) / π.
-        let m = DVec3::new(phi.sin() * sin_t, theta.cos(), -phi.cos() * sin_t);
-        let (s, c) = self.rotate.sin_cos();
-        // R_y(rotate) m.
-        let d = DVec3::new(c * m.x + s * m.z, m.y, -s * m.x + c * m.z);
         // Density in the unit square p·W·H, per solid angle over the Jacobian 2π² sin θ.
         let pdf = p * (self.width * self.height) as f64 / (2.0 * std::f64::consts::PI * std::f64::consts::PI * sin_t);
         Some((d.as_vec3(), self.texels[k], pdf))
@@ -264,13 +266,11 @@ impl EnvMap {
                 let mut w = 0.0;
                 for i in 0..sub {
                     for j in 0..sub {
-                        let mv = (r as f64 + (i as f64 + 0.5) / sub as f64) / self.height as f64;
-                        let mu = (c as f64 + (j as f64 + 0.5) / sub as f64) / self.width as f64;
-                        let (theta, phi) = (std::f64::consts::PI * mv, std::f64::consts::TAU * mu);
-                        let m = DVec3::new(phi.sin() * theta.sin(), theta.cos(), -phi.cos() * theta.sin());
-                        let (s, co) = self.rotate.sin_cos();
-                        let d = DVec3::new(co * m.x + s * m.z, m.y, -s * m.x + co * m.z);
-                        let dw = 2.0 * std::f64::consts::PI * std::f64::consts::PI * theta.sin()
+                        let (d, sin_t) = self.direction(
+                            (c as f64 + (j as f64 + 0.5) / sub as f64) / self.width as f64,
+                            (r as f64 + (i as f64 + 0.5) / sub as f64) / self.height as f64,
+                        );
+                        let dw = 2.0 * std::f64::consts::PI * std::f64::consts::PI * sin_t
                             / (self.width * self.height * sub * sub) as f64;
                         w += n.dot(d).max(0.0) * dw;
                     }
