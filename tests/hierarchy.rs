@@ -5,7 +5,7 @@
 mod common;
 
 use glam::{Vec3, Vec4};
-use meshrad::hierarchy::{poisson, Hierarchy};
+use meshrad::hierarchy::{self, poisson, Hierarchy};
 use meshrad::progress::Progress;
 use meshrad::scene::reach;
 use meshrad::transport::reconstruct;
@@ -27,7 +27,7 @@ fn surface_points(scene: &Scene, p: &SolverParams, h: &Hierarchy, n: usize) -> V
     poisson::candidates(&scene.tris, &sides, n, 12345)
         .into_iter()
         .enumerate()
-        .filter(|(i, c)| !meshrad::hierarchy::in_crevice(scene, 0, c, d_min, *i as u32))
+        .filter(|(i, c)| !hierarchy::in_crevice(scene, 0, c, d_min, *i as u32))
         .map(|(_, c)| (c.pos, c.normal))
         .collect()
 }
@@ -253,4 +253,77 @@ fn links_give_the_traced_answer() {
     p.variant = Variant::Modified;
     p.rays = 16;
     assert!(common::solve_cpu(&s, &p).1.stats.links.is_none());
+}
+
+/// The clip and crevice tests skip their rays where no ray can hit what they look for
+/// (`may_meet_wall`, the half-space test of `in_crevice`): their answers are those of the
+/// traced tests at every node and every candidate, on the embedded box (one object, world
+/// space) and on the box in parts with a turned and scaled block (object transforms,
+/// `reach = "object"`).
+#[test]
+fn clip_and_crevice_shortcuts_give_the_traced_answers() {
+    let dir = common::tmpdir();
+    let mesh = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_original_mm.obj");
+    let parts =
+        std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_parts.toml"))
+            .unwrap()
+            .replace("\"cornell_original_mm.obj\"", &format!("{:?}", mesh.to_str().unwrap()))
+            .replace(
+                "group = \"cbox_largebox\"",
+                "group = \"cbox_largebox\"\nrotate = [0.0, 17.0, 0.0]\nscale = 0.9\ntranslate = [20.0, 0.0, -15.0]",
+            );
+    let path = dir.path().join("parts.toml");
+    std::fs::write(&path, parts).unwrap();
+    let scenes = [Scene::embedded_cornell(&[]).unwrap(), Scene::load(&path, &[]).unwrap()];
+    for (k, (scene, mut p)) in scenes.into_iter().enumerate() {
+        p.levels = 5;
+        p.sender_level = 4;
+        p.gather_levels = Some(3);
+        let h = Hierarchy::build(&scene, &p, &Progress::hidden()).unwrap();
+        let (mut skipped, mut walls) = (0, 0);
+        for i in 0..h.nodes.len() {
+            let nd = &h.nodes[i];
+            let traced = hierarchy::node_clip_traced(&scene, &h, i);
+            assert_eq!(hierarchy::node_clip(&scene, &h, i), traced, "scene {k}, node {i}");
+            let may = hierarchy::may_meet_wall(&scene, nd, h.support(nd.object as usize, nd.level as usize));
+            skipped += !may as usize;
+            walls += (traced != meshrad::hierarchy::weight::NO_CLIP) as usize;
+        }
+        println!(
+            "scene {k}: {} nodes, {skipped} clips without rays, {walls} clipped",
+            h.nodes.len()
+        );
+        assert!(
+            walls > 100 && skipped > h.nodes.len() / 2,
+            "the scene has walls and open floor"
+        );
+        let d_min = p.crevice_distance * h.stats.radius_per_level.last().unwrap();
+        let (mut crevices, mut tested) = (0, 0);
+        for o in 0..scene.objects.len() {
+            let obj = &scene.objects[o];
+            let r = obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize;
+            let pool = poisson::candidates(&scene.tris[r], &vec![true; obj.tri_count as usize * 2], 6000, 77);
+            let diag = hierarchy::object_diagonal(&scene, o);
+            for (i, c) in pool.iter().enumerate() {
+                let i = i as u32;
+                let world = hierarchy::in_crevice(&scene, o, c, d_min, i);
+                assert_eq!(
+                    world,
+                    hierarchy::in_crevice_traced(&scene, o, c, d_min, i),
+                    "scene {k}, {c:?}"
+                );
+                let d_obj = d_min / obj.transform.scale;
+                let within = hierarchy::in_crevice_within(&scene, o, c, d_obj, i, diag);
+                let traced = hierarchy::in_crevice_within_traced(&scene, o, c, d_obj, i, diag);
+                assert_eq!(within, traced, "scene {k}, object {o}, {c:?}");
+                crevices += world as usize;
+                tested += 1;
+            }
+        }
+        println!("scene {k}: {crevices} of {tested} candidates in crevices");
+        assert!(
+            crevices > 10,
+            "the blocks stand on the floor: some candidates lie in crevices"
+        );
+    }
 }

@@ -298,6 +298,67 @@ pub fn rebase(nodes: &mut [BvhNode], node_offset: u32, tri_offset: u32) {
     }
 }
 
+/// Whether some triangle of the BVH rooted at `root` whose bounds meet the object-space
+/// box `[lo, hi]` satisfies `f(global index, triangle)`: a conservative region query (the
+/// triangles' bounds, not the triangles, are tested), for the tests that would otherwise
+/// trace rays which can only hit triangles in that box.
+pub fn any_in_box(
+    nodes: &[BvhNode],
+    tris: &[Tri],
+    root: u32,
+    lo: Vec3,
+    hi: Vec3,
+    mut f: impl FnMut(u32, &Tri) -> bool,
+) -> bool {
+    let meets = |bmin: Vec3, bmax: Vec3| bmin.cmple(hi).all() && bmax.cmpge(lo).all();
+    let node_meets = |i: u32| {
+        let n = &nodes[i as usize];
+        meets(Vec3::from(n.aabb.min), Vec3::from(n.aabb.max))
+    };
+    if !node_meets(root) {
+        return false;
+    }
+    let mut stack = [0u32; BVH_STACK];
+    let mut sp = 0usize;
+    let mut cur = root;
+    loop {
+        let n = &nodes[cur as usize];
+        if n.prim_count > 0 {
+            for i in n.first_index..n.first_index + n.prim_count {
+                let t = &tris[i as usize];
+                let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+                if meets(a.min(b).min(c), a.max(b).max(c)) && f(i, t) {
+                    return true;
+                }
+            }
+        } else {
+            let a = n.first_index;
+            match (node_meets(a), node_meets(a + 1)) {
+                (true, true) => {
+                    stack[sp] = a + 1;
+                    sp += 1;
+                    cur = a;
+                    continue;
+                }
+                (true, false) => {
+                    cur = a;
+                    continue;
+                }
+                (false, true) => {
+                    cur = a + 1;
+                    continue;
+                }
+                (false, false) => {}
+            }
+        }
+        if sp == 0 {
+            return false;
+        }
+        sp -= 1;
+        cur = stack[sp];
+    }
+}
+
 /// Closest (or, with `any`, first) hit in `(0, tmax)` of an object-space ray against the
 /// BVH rooted at `root` (global indices, see [`rebase`]).
 /// Returns the global triangle index, t and barycentrics.

@@ -35,12 +35,48 @@ use weight::{clip_ok, node_weight};
 /// support in the directions whose rays met them: points behind them get no weight, so
 /// light does not leak under walls into the room behind, while a finite obstacle (a box)
 /// only cuts the directions it covers (`weight::clip_ok`).
+///
+/// The rays are traced only where they can meet a wall: a node whose reach holds no
+/// triangle standing across it ([`may_meet_wall`]: most nodes, away from edges) gets the
+/// empty clip the rays would give, without tracing them.
 pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
+    let nd = &h.nodes[i];
+    let h_obj = h.support(nd.object as usize, nd.level as usize);
+    if !may_meet_wall(scene, nd, h_obj) {
+        return encode_clip(Vec::new());
+    }
+    node_clip_traced(scene, h, i)
+}
+
+/// [`node_clip`] with every ray traced (what the shortcut must reproduce; tests).
+pub fn node_clip_traced(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
     let mut planes = walls_across_support(scene, nd, h_obj);
     widen_to_neighbour_sectors(&mut planes);
     encode_clip(planes)
+}
+
+/// Where node `nd`'s clip rays start (world space) and its world normal and support.
+fn clip_ray_origin(scene: &Scene, nd: &Node, h_obj: f32) -> (Vec3, Vec3, f32) {
+    let obj = &scene.objects[nd.object as usize];
+    let h = h_obj * obj.transform.scale;
+    let n = xform_vector(&obj.to_world, Vec3::from(nd.normal)).normalize();
+    let x = xform_point(&obj.to_world, Vec3::from(nd.pos));
+    (scene.offset(x, n) + n * (0.02 * h), n, h)
+}
+
+/// Whether a clip ray of node `nd` can meet a wall: some triangle within the rays' reach
+/// (1.1 h from their origin; the cube about it, with a margin for rounding) whose normal
+/// is one the rays take for a wall (`|n · n_hit| < 0.5`, computed as they compute it).
+/// Where none is, every ray misses or hits a surface it ignores, and the clip is empty.
+pub fn may_meet_wall(scene: &Scene, nd: &Node, h_obj: f32) -> bool {
+    let (origin, n, h) = clip_ray_origin(scene, nd, h_obj);
+    let reach = 1.1 * h * 1.01 + 1e-5 * origin.abs().max_element();
+    scene.any_triangle_near(origin, reach, |o, tri| {
+        let hn = xform_vector(&scene.objects[o].to_world, crate::geom::ray::tri_normal(tri)).normalize();
+        hn.dot(n).abs() < 0.5
+    })
 }
 
 /// The nodes whose support clip an arrangement computes: all of them, or after objects
@@ -117,12 +153,9 @@ type Plane = ([i16; 2], f32, u8);
 /// The planes the 8 tangent rays of node `nd` (support `h_obj`, object space) meet.
 fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32) -> Vec<Plane> {
     let obj = &scene.objects[nd.object as usize];
-    let h = h_obj * obj.transform.scale;
     let n_obj = Vec3::from(nd.normal);
     let x_obj = Vec3::from(nd.pos);
-    let n = xform_vector(&obj.to_world, n_obj).normalize();
-    let x = xform_point(&obj.to_world, x_obj);
-    let origin = scene.offset(x, n) + n * (0.02 * h);
+    let (origin, n, h) = clip_ray_origin(scene, nd, h_obj);
     let (t, b) = onb(n_obj);
     let mut planes: Vec<Plane> = Vec::new();
     for k in 0..8 {
@@ -216,7 +249,42 @@ fn encode_clip(mut planes: Vec<Plane>) -> weight::Clip {
 /// hit something within `d_min` (world units). Such a point sits in a gap light does not
 /// enter (under an object resting on the floor, behind a luminaire a hair below the
 /// ceiling); a node there would blend its darkness into the lit surface facing it.
+///
+/// The rays are traced only where they can hit something: they leave `origin` into the
+/// upper half-space of the candidate's tangent plane through it, so a triangle lying at
+/// least half the ray offset below that plane cannot stop one. Where every triangle within
+/// `d_min` of the origin does (a candidate on open floor: its own surface alone), the
+/// answer is "no crevice" without a ray.
 pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32) -> bool {
+    let obj = &scene.objects[o];
+    let x = xform_point(&obj.to_world, c.pos);
+    let n = xform_vector(&obj.to_world, c.normal).normalize();
+    let origin = scene.offset(x, n);
+    let below = 0.5 * (origin - x).dot(n);
+    if below > 0.0 {
+        let reach = d_min * 1.01 + 1e-5 * origin.abs().max_element();
+        let may_hit = scene.any_triangle_near(origin, reach, |oi, tri| {
+            let m = &scene.objects[oi].to_world;
+            [tri.v0, tri.v1, tri.v2]
+                .iter()
+                .any(|&v| above_plane(xform_point(m, Vec3::from(v)), origin, n, below))
+        });
+        if !may_hit {
+            return false;
+        }
+    }
+    in_crevice_traced(scene, o, c, d_min, index)
+}
+
+/// Whether `v` lies less than `below` under the plane through `origin` with normal `n`
+/// (in double precision: the shortcuts' margin is the ray offset, a few ulps).
+#[inline]
+fn above_plane(v: Vec3, origin: Vec3, n: Vec3, below: f32) -> bool {
+    (v.as_dvec3() - origin.as_dvec3()).dot(n.as_dvec3()) > -(below as f64)
+}
+
+/// [`in_crevice`] with every ray traced (what the shortcut must reproduce; tests).
+pub fn in_crevice_traced(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32) -> bool {
     let obj = &scene.objects[o];
     let x = xform_point(&obj.to_world, c.pos);
     let n = xform_vector(&obj.to_world, c.normal).normalize();
@@ -237,7 +305,34 @@ pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32
 /// [`in_crevice`] against object `o` alone, in object space (`reach = "object"`): the
 /// gap must lie within the object (`d_min_obj` in object units), so the answer does not
 /// depend on where the object is or on the other objects.
+/// Rays are traced only where they can hit something, as in [`in_crevice`].
 pub fn in_crevice_within(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32, index: u32, diag: f32) -> bool {
+    let obj = &scene.objects[o];
+    let origin = crate::geom::ray::offset_origin(c.pos, c.normal, diag);
+    let below = 0.5 * (origin - c.pos).dot(c.normal);
+    if below > 0.0 {
+        let reach = d_min_obj * 1.01 + 1e-5 * origin.abs().max_element();
+        let may_hit = crate::geom::bvh::any_in_box(
+            &scene.bvh,
+            &scene.tris,
+            obj.bvh_root,
+            origin - reach,
+            origin + reach,
+            |_, tri| {
+                [tri.v0, tri.v1, tri.v2]
+                    .iter()
+                    .any(|&v| above_plane(Vec3::from(v), origin, c.normal, below))
+            },
+        );
+        if !may_hit {
+            return false;
+        }
+    }
+    in_crevice_within_traced(scene, o, c, d_min_obj, index, diag)
+}
+
+/// [`in_crevice_within`] with every ray traced (tests).
+pub fn in_crevice_within_traced(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32, index: u32, diag: f32) -> bool {
     let obj = &scene.objects[o];
     let origin = crate::geom::ray::offset_origin(c.pos, c.normal, diag);
     let (t, b) = onb(c.normal);
@@ -255,7 +350,7 @@ pub fn in_crevice_within(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32,
 }
 
 /// Object-space diagonal of object `o`'s bounds (the offset scale of object-space rays).
-fn object_diagonal(scene: &Scene, o: usize) -> f32 {
+pub fn object_diagonal(scene: &Scene, o: usize) -> f32 {
     let obj = &scene.objects[o];
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for t in &scene.tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {

@@ -40,6 +40,22 @@ pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<
     if total <= 0.0 || count == 0 {
         return Vec::new();
     }
+    // Cut points (Chen & Asau): `guide[j]` is the first side whose cumulative area exceeds
+    // `j · total / G`, so the search for a draw `u` starts at `guide[floor(u G / total) - 1]`
+    // and scans a few entries: the side `partition_point` finds, without its cache misses.
+    let g = cdf.len().next_power_of_two();
+    let guide: Vec<u32> = (0..g)
+        .into_par_iter()
+        .map(|j| cdf.partition_point(|&x| x <= j as f64 * total / g as f64) as u32)
+        .collect();
+    let side = |u: f64| {
+        let j = ((u / total * g as f64) as usize).saturating_sub(1).min(g - 1);
+        let mut k = guide[j] as usize;
+        while k < cdf.len() && cdf[k] <= u {
+            k += 1;
+        }
+        k.min(cdf.len() - 1)
+    };
     const CHUNK: usize = 4096;
     let chunks = count.div_ceil(CHUNK);
     (0..chunks)
@@ -47,12 +63,10 @@ pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<
         .flat_map_iter(|c| {
             let mut rng = Rng::new(seed, c as u64);
             let n = CHUNK.min(count - c * CHUNK);
-            let cdf = &cdf;
             let which = &which;
+            let side = &side;
             (0..n).map(move |_| {
-                let u = rng.next_f64() * total;
-                let k = cdf.partition_point(|&x| x <= u).min(cdf.len() - 1);
-                let (t, back) = which[k];
+                let (t, back) = which[side(rng.next_f64() * total)];
                 let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
                 let nrm = tri_normal(&tris[t]);
                 Candidate {

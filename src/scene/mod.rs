@@ -430,6 +430,20 @@ impl Scene {
         })
     }
 
+    /// Whether some triangle whose bounds meet the world-space cube of half-width `r`
+    /// about `c` satisfies `f(object, triangle)` (object-space triangle): which triangles
+    /// rays from `c` no longer than `r` can reach, without tracing them.
+    pub fn any_triangle_near(&self, c: Vec3, r: f32, mut f: impl FnMut(usize, &Tri) -> bool) -> bool {
+        self.objects.iter().enumerate().any(|(i, o)| {
+            let co = xform_point(&o.to_object, c);
+            let ro = xform_vector(&o.to_object, Vec3::new(r, 0.0, 0.0)).length();
+            if !ro.is_finite() {
+                return true;
+            }
+            bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, co - ro, co + ro, |_, t| f(i, t))
+        })
+    }
+
     /// The surface at a hit, its normal turned towards the ray's origin.
     pub fn surface(&self, hit: &Hit, ray_d: Vec3) -> Surface {
         let o = &self.objects[hit.object as usize];
