@@ -327,3 +327,29 @@ fn clip_and_crevice_shortcuts_give_the_traced_answers() {
         );
     }
 }
+
+/// The hierarchy does not depend on the number of threads that build it: nodes, clips,
+/// parents and weights are identical bit for bit with 1, 2 and 3 threads (issue #13).
+#[test]
+fn same_hierarchy_on_any_number_of_threads() {
+    let build = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| {
+            let (s, p) = cornell(5);
+            let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
+            let parents: Vec<(u32, u32)> = h.parents.iter().map(|q| (q.node, q.weight.to_bits())).collect();
+            (h.nodes, h.clips, h.parent_offset, parents)
+        })
+    };
+    let one = build(1);
+    assert!(one.0.len() > 40_000);
+    for threads in [2, 3] {
+        let other = build(threads);
+        assert!(one.0 == other.0, "nodes differ with {threads} threads");
+        assert!(one.1 == other.1, "clips differ with {threads} threads");
+        assert!(
+            one.2 == other.2 && one.3 == other.3,
+            "parents differ with {threads} threads"
+        );
+    }
+}
