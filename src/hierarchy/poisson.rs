@@ -33,7 +33,8 @@ pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<
             if sides[t * 2 + back] {
                 total += a;
                 cdf.push(total);
-                which.push((t, back == 1));
+                let nrm = tri_normal(tri);
+                which.push((t, if back == 1 { -nrm } else { nrm }));
             }
         }
     }
@@ -56,26 +57,27 @@ pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<
         }
         k.min(cdf.len() - 1)
     };
+    // Each chunk of 4096 draws its own stream and fills its own part of the pool.
     const CHUNK: usize = 4096;
-    let chunks = count.div_ceil(CHUNK);
-    (0..chunks)
-        .into_par_iter()
-        .flat_map_iter(|c| {
-            let mut rng = Rng::new(seed, c as u64);
-            let n = CHUNK.min(count - c * CHUNK);
-            let which = &which;
-            let side = &side;
-            (0..n).map(move |_| {
-                let (t, back) = which[side(rng.next_f64() * total)];
-                let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
-                let nrm = tri_normal(&tris[t]);
-                Candidate {
-                    pos: tri_point(&tris[t], b1, b2),
-                    normal: if back { -nrm } else { nrm },
-                }
-            })
-        })
-        .collect()
+    let mut pool = vec![
+        Candidate {
+            pos: Vec3::ZERO,
+            normal: Vec3::ZERO
+        };
+        count
+    ];
+    pool.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
+        let mut rng = Rng::new(seed, c as u64);
+        for o in out {
+            let (t, normal) = which[side(rng.next_f64() * total)];
+            let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
+            *o = Candidate {
+                pos: tri_point(&tris[t], b1, b2),
+                normal,
+            };
+        }
+    });
+    pool
 }
 
 /// Total area of the reachable sides.
@@ -93,8 +95,8 @@ pub fn reachable_area(tris: &[Tri], sides: &[bool]) -> f64 {
         .sum()
 }
 
-/// A cell of [`Grid`]'s open-addressing table: its coordinates and the first point of its
-/// list (`NONE`: a free slot).
+/// A cell of [`Grid`]'s open-addressing table: its coordinates and the first block of its
+/// points (`NONE`: a free slot).
 #[derive(Clone, Copy)]
 struct Slot {
     key: [i32; 3],
@@ -107,14 +109,16 @@ const FREE: Slot = Slot {
     head: NONE,
 };
 
-/// A point and the next one of its cell, in one 32-byte record: a chain step is one
-/// cache line.
+/// Up to two points of a cell and the cell's next block, in one 64-byte line: a cell of
+/// up to two points (most of them: about 2.8 points per cell on a plane) is one line to
+/// fetch, where a list of records takes one dependent miss per point.
 #[derive(Clone, Copy)]
-#[repr(C, align(32))]
-struct Entry {
-    pos: Vec3,
+#[repr(C, align(64))]
+struct Block {
+    pos: [Vec3; 2],
+    normal: [Vec3; 2],
+    len: u32,
     next: u32,
-    normal: Vec3,
 }
 
 /// Asks the cache for the line holding `x`; no effect on what the program computes.
@@ -132,13 +136,15 @@ fn prefetch<T>(x: &T) {
 /// A uniform grid over accepted points with per-cell lists, hashed by linear probing.
 /// Cells are `2r` wide, so the ball of radius `r` about a point meets at most two cells
 /// per axis: eight lookups where cells of `r` take twenty-seven. Dart throwing is bound by
-/// memory latency, hence the flat table (a lookup is one cache line) and the records.
+/// memory latency, hence the flat table (a lookup is one cache line) and the blocks.
 pub struct Grid {
     r: f32,
     inv_cell: f32,
     slots: Vec<Slot>,
     used: usize,
-    entries: Vec<Entry>,
+    blocks: Vec<Block>,
+    /// The points in insertion order.
+    order: Vec<Candidate>,
 }
 
 impl Grid {
@@ -148,7 +154,8 @@ impl Grid {
             inv_cell: 0.5 / r,
             slots: vec![FREE; 64],
             used: 0,
-            entries: Vec::new(),
+            blocks: Vec::new(),
+            order: Vec::new(),
         }
     }
 
@@ -185,18 +192,7 @@ impl Grid {
         let own = self.cell(c.pos);
         let lo = self.cell(c.pos - Vec3::splat(self.r));
         let hi = self.cell(c.pos + Vec3::splat(self.r));
-        let r2 = self.r * self.r;
-        let scan = |key: [i32; 3]| {
-            let mut i = self.slots[self.slot(key)].head;
-            while i != NONE {
-                let q = &self.entries[i as usize];
-                if (q.pos - c.pos).length_squared() < r2 && q.normal.dot(c.normal) > 0.0 {
-                    return true;
-                }
-                i = q.next;
-            }
-            false
-        };
+        let scan = |key: [i32; 3]| self.cell_conflicts(self.slots[self.slot(key)].head, c);
         if scan(own) {
             return true;
         }
@@ -225,18 +221,27 @@ impl Grid {
         self.open_in_neighbourhood(cands, &left, &mut keep);
     }
 
-    /// Whether the own cell of `c` holds a point on the same side closer than `r`.
-    fn conflicts_in_own_cell(&self, c: &Candidate) -> bool {
+    /// Whether the cell whose first block is `head` holds a point on the same side closer
+    /// than `r` to `c`.
+    #[inline]
+    fn cell_conflicts(&self, head: u32, c: &Candidate) -> bool {
         let r2 = self.r * self.r;
-        let mut i = self.slots[self.slot(self.cell(c.pos))].head;
+        let mut i = head;
         while i != NONE {
-            let q = &self.entries[i as usize];
-            if (q.pos - c.pos).length_squared() < r2 && q.normal.dot(c.normal) > 0.0 {
-                return true;
+            let b = &self.blocks[i as usize];
+            for k in 0..b.len as usize {
+                if (b.pos[k] - c.pos).length_squared() < r2 && b.normal[k].dot(c.normal) > 0.0 {
+                    return true;
+                }
             }
-            i = q.next;
+            i = b.next;
         }
         false
+    }
+
+    /// Whether the own cell of `c` holds a point on the same side closer than `r`.
+    fn conflicts_in_own_cell(&self, c: &Candidate) -> bool {
+        self.cell_conflicts(self.slots[self.slot(self.cell(c.pos))].head, c)
     }
 
     /// The indices of `cands` whose own cell does not reject them, in order: a pipeline
@@ -254,7 +259,7 @@ impl Grid {
             if let Some(b) = i.checked_sub(D).filter(|&b| b < cands.len()) {
                 let head = self.slots[homes[b % RING]].head;
                 if head != NONE {
-                    prefetch(&self.entries[head as usize]);
+                    prefetch(&self.blocks[head as usize]);
                 }
             }
             if let Some(t) = i.checked_sub(2 * D).filter(|&t| t < cands.len()) {
@@ -296,7 +301,7 @@ impl Grid {
                 for &h in &homes[b % RING][..counts[b % RING]] {
                     let head = self.slots[h].head;
                     if head != NONE {
-                        prefetch(&self.entries[head as usize]);
+                        prefetch(&self.blocks[head as usize]);
                     }
                 }
             }
@@ -310,17 +315,15 @@ impl Grid {
 
     /// The points in insertion order.
     pub fn points(&self) -> impl Iterator<Item = Candidate> + '_ {
-        self.entries.iter().map(|e| Candidate {
-            pos: e.pos,
-            normal: e.normal,
-        })
+        self.order.iter().copied()
     }
 
     /// Empties the grid, keeping its allocations.
     pub fn clear(&mut self) {
         self.slots.fill(FREE);
         self.used = 0;
-        self.entries.clear();
+        self.blocks.clear();
+        self.order.clear();
     }
 
     pub fn insert(&mut self, c: Candidate) {
@@ -339,12 +342,24 @@ impl Grid {
             *s = Slot { key, head: NONE };
             self.used += 1;
         }
-        self.entries.push(Entry {
-            pos: c.pos,
-            next: s.head,
-            normal: c.normal,
-        });
-        s.head = (self.entries.len() - 1) as u32;
+        // The newest block first: it is the one with room.
+        match self.blocks.get_mut(s.head as usize) {
+            Some(b) if b.len < 2 => {
+                b.pos[b.len as usize] = c.pos;
+                b.normal[b.len as usize] = c.normal;
+                b.len += 1;
+            }
+            _ => {
+                self.blocks.push(Block {
+                    pos: [c.pos, Vec3::ZERO],
+                    normal: [c.normal, Vec3::ZERO],
+                    len: 1,
+                    next: s.head,
+                });
+                s.head = (self.blocks.len() - 1) as u32;
+            }
+        }
+        self.order.push(c);
     }
 }
 
