@@ -210,9 +210,9 @@ impl Grid {
 
     /// [`Self::conflicts`] for many candidates at once: `keep(i)` is called, in order, for
     /// the indices of `cands` that conflict with no point. Dart throwing waits on memory
-    /// (about ten cache misses per candidate, for cells and list records), so this runs as
-    /// a pipeline: candidate `i + 2D` prefetches its cells' slots, candidate `i + D` the
-    /// first records of their lists, candidate `i` is tested.
+    /// (cache misses for cells and their blocks), so each stage runs as a pipeline:
+    /// candidate `i + 2D` prefetches its cells' slots, candidate `i + D` their first
+    /// blocks, candidate `i` is tested.
     pub fn open_candidates(&self, cands: &[Candidate], mut keep: impl FnMut(usize)) {
         // First the own cell alone (two lines to fetch, where most rejections happen),
         // then the whole neighbourhood for the candidates it leaves open.
