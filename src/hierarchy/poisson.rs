@@ -211,8 +211,9 @@ impl Grid {
     /// [`Self::conflicts`] for many candidates at once: `keep(i)` is called, in order, for
     /// the indices of `cands` that conflict with no point. Dart throwing waits on memory
     /// (cache misses for cells and their blocks), so each stage runs as a pipeline:
-    /// candidate `i + 2D` prefetches its cells' slots, candidate `i + D` their first
-    /// blocks, candidate `i` is tested.
+    /// candidate `i + 3D` prefetches its cells' slots, candidate `i + 2D` their first
+    /// blocks, candidate `i + D` their second blocks (cells of more than two points),
+    /// candidate `i` is tested.
     pub fn open_candidates(&self, cands: &[Candidate], mut keep: impl FnMut(usize)) {
         // First the own cell alone (two lines to fetch, where most rejections happen),
         // then the whole neighbourhood for the candidates it leaves open.
@@ -250,7 +251,8 @@ impl Grid {
         const D: usize = 8;
         const RING: usize = 4 * D;
         let mut homes = [0usize; RING];
-        for i in 0..cands.len() + 2 * D {
+        let mut heads = [NONE; RING];
+        for i in 0..cands.len() + 3 * D {
             if i < cands.len() {
                 let h = self.home(self.cell(cands[i].pos));
                 prefetch(&self.slots[h]);
@@ -261,8 +263,12 @@ impl Grid {
                 if head != NONE {
                     prefetch(&self.blocks[head as usize]);
                 }
+                heads[b % RING] = head;
             }
-            if let Some(t) = i.checked_sub(2 * D).filter(|&t| t < cands.len()) {
+            if let Some(b) = i.checked_sub(2 * D).filter(|&b| b < cands.len()) {
+                self.prefetch_next(heads[b % RING]);
+            }
+            if let Some(t) = i.checked_sub(3 * D).filter(|&t| t < cands.len()) {
                 if !self.conflicts_in_own_cell(&cands[t]) {
                     keep(t);
                 }
@@ -275,8 +281,9 @@ impl Grid {
         const D: usize = 8;
         const RING: usize = 4 * D;
         let mut homes = [[0usize; 8]; RING];
+        let mut heads = [[NONE; 8]; RING];
         let mut counts = [0usize; RING];
-        for i in 0..which.len() + 2 * D {
+        for i in 0..which.len() + 3 * D {
             let a = i;
             if a < which.len() {
                 let c = &all[which[a]];
@@ -298,17 +305,35 @@ impl Grid {
                 counts[a % RING] = n.min(8);
             }
             if let Some(b) = i.checked_sub(D).filter(|&b| b < which.len()) {
-                for &h in &homes[b % RING][..counts[b % RING]] {
-                    let head = self.slots[h].head;
+                for k in 0..counts[b % RING] {
+                    let head = self.slots[homes[b % RING][k]].head;
                     if head != NONE {
                         prefetch(&self.blocks[head as usize]);
                     }
+                    heads[b % RING][k] = head;
                 }
             }
-            if let Some(t) = i.checked_sub(2 * D).filter(|&t| t < which.len()) {
+            if let Some(b) = i.checked_sub(2 * D).filter(|&b| b < which.len()) {
+                for &head in &heads[b % RING][..counts[b % RING]] {
+                    self.prefetch_next(head);
+                }
+            }
+            if let Some(t) = i.checked_sub(3 * D).filter(|&t| t < which.len()) {
                 if !self.conflicts(&all[which[t]]) {
                     keep(which[t]);
                 }
+            }
+        }
+    }
+
+    /// Prefetches the block after `head`: a cell of more than two points has a second
+    /// block, allocated later and elsewhere, one more dependent miss without this.
+    #[inline]
+    fn prefetch_next(&self, head: u32) {
+        if head != NONE {
+            let next = self.blocks[head as usize].next;
+            if next != NONE {
+                prefetch(&self.blocks[next as usize]);
             }
         }
     }
