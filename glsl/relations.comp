@@ -46,8 +46,8 @@ const uint CHILD_COUNT = 3u;
 const uint CHILD_FILL = 4u;
 const uint CHILD_SORT = 5u;
 
-// The nodes of level l of `ob` with w > 0 admitted by their clips at (p, n), in kd order
-// (Hierarchy::for_each_weight): counted, summed, and with `write` stored from `at`.
+// The nodes of level l of `ob` with w > 0 admitted by their clips at (p, n), in ascending
+// order (Hierarchy::parents_of_group): counted, summed, and with `write` stored from `at`.
 uint weights(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, bool write, uint at, out float sum) {
     uint base = ob.level_start[l];
     uint count = ob.level_count[l];
@@ -68,14 +68,20 @@ uint weights(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, bool write, ui
             uint mid = (lo + hi) / 2u;
             KdSplit s = splits.v[base + mid];
             float d = p[s.dim] - s.value;
-            uvec2 near_ = d < 0.0 ? uvec2(lo, mid) : uvec2(mid, hi);
-            uvec2 far_ = d < 0.0 ? uvec2(mid, hi) : uvec2(lo, mid);
-            if (abs(d) < h) {
-                stack[sp] = far_;
+            // The leaves the near-first descent visits, in ascending order (the host's
+            // Hierarchy::parents_of_group): the left side is met when d < h, the right
+            // one when -d < h.
+            bool left = d < h;
+            bool right = -d < h;
+            if (left && right) {
+                stack[sp] = uvec2(mid, hi);
                 sp++;
             }
-            lo = near_.x;
-            hi = near_.y;
+            if (left) {
+                hi = mid;
+            } else {
+                lo = mid;
+            }
         }
         Node nd = nodes.v[base + lo];
         vec3 dx = nd.pos - p;

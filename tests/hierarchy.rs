@@ -126,11 +126,35 @@ fn parent_weights_sum_to_one() {
     let (scene, params) = cornell(5);
     let h = Hierarchy::build(&scene, &params, &Progress::hidden()).unwrap();
     let mut checked = 0;
+    let mut holes = 0;
     for c in h.level_start[1] as usize..h.nodes.len() {
         let ps = h.parents_of(c);
         assert!(!ps.is_empty(), "node {c} has no parent");
         let s: f32 = ps.iter().map(|p| p.weight).sum();
         assert!((s - 1.0).abs() < 1e-5, "node {c}: parent weights sum to {s}");
+        // The lists come from one kd walk per group of children: each must hold exactly
+        // the nodes the child's own descent finds, ascending, with their weights.
+        let nd = &h.nodes[c];
+        let mut own = Vec::new();
+        h.for_each_weight(
+            nd.object as usize,
+            nd.level as usize - 1,
+            Vec3::from(nd.pos),
+            Vec3::from(nd.normal),
+            |j, w| own.push((j as u32, w)),
+        );
+        own.sort_by_key(|&(j, _)| j);
+        if own.is_empty() {
+            holes += 1;
+            assert_eq!((ps.len(), ps[0].weight), (1, 1.0), "node {c}: a hole takes one parent");
+        } else {
+            let sum: f32 = own.iter().map(|&(_, w)| w).sum();
+            assert_eq!(ps.len(), own.len(), "node {c}: parents");
+            for (p, &(j, w)) in ps.iter().zip(&own) {
+                assert_eq!(p.node, j, "node {c}: parents");
+                assert!((p.weight - w / sum).abs() <= 1e-6, "node {c}: weight of parent {j}");
+            }
+        }
         for p in ps {
             assert_eq!(h.nodes[p.node as usize].level + 1, h.nodes[c].level);
             assert!(h.children_of(p.node as usize).contains(&(c as u32)));
@@ -139,6 +163,7 @@ fn parent_weights_sum_to_one() {
     }
     assert!(checked > 10_000);
     assert_eq!(h.stats.orphans_per_level.iter().sum::<u32>(), 0);
+    assert_eq!(h.stats.parent_holes_per_level.iter().sum::<u32>(), holes);
 }
 
 #[test]

@@ -86,6 +86,39 @@ pub fn range(nodes: &[Node], splits: &[KdSplit], p: Vec3, r: f32, mut f: impl Fn
     });
 }
 
+/// Calls `f(i)`, in ascending order, for every leaf that the descent of [`range`] visits
+/// for some point of the box `[lo, hi]` (a superset of the nodes within `r` of any of
+/// them): one walk for a group of nearby queries.
+#[inline]
+pub fn box_leaves(splits: &[KdSplit], lo: Vec3, hi: Vec3, r: f32, mut f: impl FnMut(usize)) {
+    let mut stack = [(0u32, 0u32); KD_STACK];
+    let mut sp = usize::from(!splits.is_empty());
+    stack[0] = (0, splits.len() as u32);
+    while sp > 0 {
+        sp -= 1;
+        let (mut a, mut b) = stack[sp];
+        while b - a > 1 {
+            let mid = (a + b) / 2;
+            let s = splits[mid as usize];
+            let dim = s.dim as usize;
+            // A point p meets the left side when p - value < r, the right one when
+            // value - p < r.
+            let left = lo[dim] - s.value < r;
+            let right = s.value - hi[dim] < r;
+            if left && right {
+                stack[sp] = (mid, b);
+                sp += 1;
+            }
+            if left {
+                b = mid;
+            } else {
+                a = mid;
+            }
+        }
+        f(a as usize);
+    }
+}
+
 /// The first leaf met by a near-first descent for `p` whose node lies within `r` and that
 /// `ok(i)` accepts (normal agreement, support clip): the approximate reconstruction
 /// (paper §5.1).

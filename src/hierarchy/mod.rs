@@ -444,6 +444,14 @@ pub struct Hierarchy {
     pub object_reach: Option<reach::ObjectReach>,
 }
 
+/// The parent lists of a group of consecutive children ([`Hierarchy::parents_of_group`]):
+/// concatenated, with each child's length and the number of holes among them.
+struct GroupParents {
+    parents: Vec<Parent>,
+    lens: Vec<u32>,
+    holes: u32,
+}
+
 /// The levels' density: each object's reachable area (world units²) and the world-space
 /// Poisson radius of each level (§3: `r_0 = sqrt(0.7 A / N_0)`, halved per level).
 struct Density {
@@ -871,66 +879,124 @@ impl Hierarchy {
         None
     }
 
+    /// The parent lists of `children`, consecutive nodes of one object and level `l ≥ 1`
+    /// (a marked child's when `dirty` is given; the others keep theirs): the nodes of level
+    /// `l − 1` with `w_j > 0` whose clips admit the child, in ascending order, normalised;
+    /// where none, the nearest same-side node (a hole). The nodes a child's own kd descent
+    /// would find ([`Self::for_each_weight`]), through one walk over the group's bounds
+    /// (GLSL twin: `weights` in `glsl/relations.comp`).
+    fn parents_of_group(&self, children: std::ops::Range<usize>, dirty: Option<&[bool]>) -> GroupParents {
+        let first = &self.nodes[children.start];
+        let (o, l) = (first.object as usize, first.level as usize - 1);
+        let todo = |c: usize| dirty.is_none_or(|d| d[c]);
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for c in children.clone().filter(|&c| todo(c)) {
+            lo = lo.min(Vec3::from(self.nodes[c].pos));
+            hi = hi.max(Vec3::from(self.nodes[c].pos));
+        }
+        let (nodes, splits, base) = self.level(o, l);
+        let h = self.support(o, l);
+        let mut near = Vec::new();
+        if lo.x <= hi.x {
+            kdtree::box_leaves(splits, lo, hi, h, |i| {
+                let x = Vec3::from(nodes[i].pos);
+                if x.cmpgt(lo - h).all() && x.cmplt(hi + h).all() {
+                    near.push(i as u32);
+                }
+            });
+        }
+        let r2 = h * h;
+        let mut out = GroupParents {
+            parents: Vec::with_capacity(children.len() * 12),
+            lens: Vec::with_capacity(children.len()),
+            holes: 0,
+        };
+        for c in children {
+            let at = out.parents.len();
+            if !todo(c) {
+                out.parents.extend_from_slice(self.parents_of(c));
+                out.lens.push((out.parents.len() - at) as u32);
+                continue;
+            }
+            let nd = &self.nodes[c];
+            let (p, nrm) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
+            let mut sum = 0.0f32;
+            for &i in &near {
+                let nj = &nodes[i as usize];
+                let x = Vec3::from(nj.pos);
+                if (x - p).length_squared() >= r2 {
+                    continue;
+                }
+                let nn = Vec3::from(nj.normal);
+                let w = node_weight(p, nrm, x, nn, h, self.alpha);
+                if w > 0.0 && clip_ok(&self.clips[base + i as usize], p - x, nn, h) {
+                    out.parents.push(Parent {
+                        node: (base + i as usize) as u32,
+                        weight: w,
+                    });
+                    sum += w;
+                }
+            }
+            if sum > 0.0 {
+                for q in &mut out.parents[at..] {
+                    q.weight /= sum;
+                }
+            } else if let Some(j) = self.nearest_same_side(o, l, p, nrm) {
+                out.parents.push(Parent {
+                    node: j as u32,
+                    weight: 1.0,
+                });
+                out.holes += 1;
+            }
+            out.lens.push((out.parents.len() - at) as u32);
+        }
+        out
+    }
+
     /// The parent and child relations; with `dirty`, only the marked children's parent
     /// lists are computed again (the others keep theirs).
     fn build_relations(&mut self, dirty: Option<&[bool]>) {
         let n = self.nodes.len();
-        let lists: Vec<Vec<Parent>> = (0..n)
-            .into_par_iter()
-            .map(|c| {
-                let nd = &self.nodes[c];
-                if nd.level == 0 {
-                    return Vec::new();
-                }
-                if dirty.is_some_and(|d| !d[c]) {
-                    return self.parents_of(c).to_vec();
-                }
-                let (o, l) = (nd.object as usize, nd.level as usize - 1);
-                let (p, nrm) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
-                let mut v = Vec::new();
-                let mut sum = 0.0f32;
-                self.for_each_weight(o, l, p, nrm, |j, w| {
-                    v.push(Parent {
-                        node: j as u32,
-                        weight: w,
-                    });
-                    sum += w;
-                });
-                if sum > 0.0 {
-                    for q in &mut v {
-                        q.weight /= sum;
-                    }
-                } else if let Some(j) = self.nearest_same_side(o, l, p, nrm) {
-                    v.push(Parent {
-                        node: j as u32,
-                        weight: 1.0,
-                    });
-                    // Mark the hole: weight exactly 1 with a sum of 0 is recorded below.
-                    v.push(Parent {
-                        node: u32::MAX,
-                        weight: 0.0,
-                    });
-                }
-                v
-            })
-            .collect();
         let m = self.levels as usize;
+        // Groups of up to GROUP consecutive children of one (object, level): neighbours in
+        // kd order, so one kd walk over their bounds serves them all. In node order, so
+        // that their lists concatenate into the CSR (level 0 has none).
+        const GROUP: usize = 8;
+        let mut groups = Vec::new();
+        for ol in &self.objects {
+            for l in 1..m {
+                let s = ol.start[l] as usize;
+                let e = s + ol.count[l] as usize;
+                groups.extend((s..e).step_by(GROUP).map(|a| a..(a + GROUP).min(e)));
+            }
+        }
+        groups.sort_by_key(|g| g.start);
+        let lists: Vec<(usize, GroupParents)> = groups
+            .into_par_iter()
+            .map(|g| (g.start, self.parents_of_group(g, dirty)))
+            .collect();
         let mut holes = vec![0u32; m];
+        let mut lens = vec![0u32; n];
+        for (start, g) in &lists {
+            holes[self.nodes[*start].level as usize] += g.holes;
+            lens[*start..*start + g.lens.len()].copy_from_slice(&g.lens);
+        }
         let mut orphans = vec![0u32; m];
         self.parent_offset = Vec::with_capacity(n + 1);
-        self.parents.clear();
-        for (c, mut v) in lists.into_iter().enumerate() {
+        let mut acc = 0u32;
+        for (c, &k) in lens.iter().enumerate() {
             let l = self.nodes[c].level as usize;
-            if v.last().is_some_and(|q| q.node == u32::MAX) {
-                v.pop();
-                holes[l] += 1;
-            } else if v.is_empty() && l > 0 {
+            if k == 0 && l > 0 {
                 orphans[l] += 1;
             }
-            self.parent_offset.push(self.parents.len() as u32);
-            self.parents.extend(v);
+            self.parent_offset.push(acc);
+            acc += k;
         }
-        self.parent_offset.push(self.parents.len() as u32);
+        self.parent_offset.push(acc);
+        self.parents = Vec::with_capacity(acc as usize);
+        for (_, g) in lists {
+            self.parents.extend_from_slice(&g.parents);
+        }
         self.stats.parent_holes_per_level = holes;
         self.stats.orphans_per_level = orphans;
 
