@@ -444,12 +444,12 @@ pub struct Hierarchy {
     pub object_reach: Option<reach::ObjectReach>,
 }
 
-/// The parent lists of a group of consecutive children ([`Hierarchy::parents_of_group`]):
-/// concatenated, with each child's length and the number of holes among them.
+/// The parent lists of a run of consecutive children ([`Hierarchy::parents_of_group`]):
+/// concatenated, with each child's length and the holes among them per level.
 struct GroupParents {
     parents: Vec<Parent>,
     lens: Vec<u32>,
-    holes: u32,
+    holes: Vec<u32>,
 }
 
 /// The levels' density: each object's reachable area (world units²) and the world-space
@@ -885,7 +885,7 @@ impl Hierarchy {
     /// where none, the nearest same-side node (a hole). The nodes a child's own kd descent
     /// would find ([`Self::for_each_weight`]), through one walk over the group's bounds
     /// (GLSL twin: `weights` in `glsl/relations.comp`).
-    fn parents_of_group(&self, children: std::ops::Range<usize>, dirty: Option<&[bool]>) -> GroupParents {
+    fn parents_of_group(&self, children: std::ops::Range<usize>, dirty: Option<&[bool]>, out: &mut GroupParents) {
         let first = &self.nodes[children.start];
         let (o, l) = (first.object as usize, first.level as usize - 1);
         let todo = |c: usize| dirty.is_none_or(|d| d[c]);
@@ -906,11 +906,6 @@ impl Hierarchy {
             });
         }
         let r2 = h * h;
-        let mut out = GroupParents {
-            parents: Vec::with_capacity(children.len() * 12),
-            lens: Vec::with_capacity(children.len()),
-            holes: 0,
-        };
         for c in children {
             let at = out.parents.len();
             if !todo(c) {
@@ -946,11 +941,10 @@ impl Hierarchy {
                     node: j as u32,
                     weight: 1.0,
                 });
-                out.holes += 1;
+                out.holes[l + 1] += 1;
             }
             out.lens.push((out.parents.len() - at) as u32);
         }
-        out
     }
 
     /// The parent and child relations; with `dirty`, only the marked children's parent
@@ -971,16 +965,31 @@ impl Hierarchy {
             }
         }
         groups.sort_by_key(|g| g.start);
-        let lists: Vec<(usize, GroupParents)> = groups
-            .into_par_iter()
-            .map(|g| (g.start, self.parents_of_group(g, dirty)))
+        // The groups tile the nodes after level 0 in order; runs of them fill one output.
+        let lists: Vec<GroupParents> = groups
+            .par_chunks(64)
+            .map(|run| {
+                let mut out = GroupParents {
+                    parents: Vec::new(),
+                    lens: Vec::new(),
+                    holes: vec![0; m],
+                };
+                for g in run {
+                    self.parents_of_group(g.clone(), dirty, &mut out);
+                }
+                out
+            })
             .collect();
         let mut holes = vec![0u32; m];
-        let mut lens = vec![0u32; n];
-        for (start, g) in &lists {
-            holes[self.nodes[*start].level as usize] += g.holes;
-            lens[*start..*start + g.lens.len()].copy_from_slice(&g.lens);
+        // Level 0 has no parents.
+        let mut lens = vec![0u32; self.level_start[1] as usize];
+        for g in &lists {
+            for (a, b) in holes.iter_mut().zip(&g.holes) {
+                *a += b;
+            }
+            lens.extend_from_slice(&g.lens);
         }
+        debug_assert_eq!(lens.len(), n);
         let mut orphans = vec![0u32; m];
         self.parent_offset = Vec::with_capacity(n + 1);
         let mut acc = 0u32;
@@ -994,7 +1003,7 @@ impl Hierarchy {
         }
         self.parent_offset.push(acc);
         self.parents = Vec::with_capacity(acc as usize);
-        for (_, g) in lists {
+        for g in lists {
             self.parents.extend_from_slice(&g.parents);
         }
         self.stats.parent_holes_per_level = holes;

@@ -121,6 +121,14 @@ struct Block {
     next: u32,
 }
 
+/// `x.floor() as i32` without the call to libm's `floorf` (the default x86-64 target has
+/// no rounding instruction): the same value for every `f32`, saturating alike.
+#[inline(always)]
+fn floor_i32(x: f32) -> i32 {
+    let t = x as i32;
+    t.saturating_sub(((t as f32) > x) as i32)
+}
+
 /// Asks the cache for the line holding `x`; no effect on what the program computes.
 #[inline(always)]
 fn prefetch<T>(x: &T) {
@@ -160,8 +168,8 @@ impl Grid {
     }
 
     fn cell(&self, p: Vec3) -> [i32; 3] {
-        let c = (p * self.inv_cell).floor();
-        [c.x as i32, c.y as i32, c.z as i32]
+        let c = p * self.inv_cell;
+        [floor_i32(c.x), floor_i32(c.y), floor_i32(c.z)]
     }
 
     fn home(&self, k: [i32; 3]) -> usize {
@@ -444,4 +452,43 @@ pub fn dart_throw_sequential(pool: &[Candidate], r: f32, usable: impl Fn(usize) 
         }
     }
     g.points().collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn floor_i32_is_floor() {
+        let mut v = vec![
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            2.999_999_8,
+            -2.999_999_8,
+            1e9,
+            -1e9,
+            3e9,
+            -3e9,
+        ];
+        v.extend([
+            f32::NAN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+        ]);
+        v.extend([2_147_483_520.0, -2_147_483_648.0, 8_388_607.5, -8_388_607.5]);
+        let mut x = 0x1234_5678u32;
+        for _ in 0..1_000_000 {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            v.push(f32::from_bits(x));
+        }
+        for a in v {
+            assert_eq!(super::floor_i32(a), a.floor() as i32, "{a}");
+        }
+    }
 }
