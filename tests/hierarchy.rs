@@ -281,7 +281,9 @@ fn links_give_the_traced_answer() {
 }
 
 /// The clip and crevice tests skip their rays where no ray can hit what they look for
-/// (`may_meet_wall`, the half-space test of `in_crevice`): their answers are those of the
+/// (`may_meet_wall`, the half-space test of `in_crevice`) and test them against the few
+/// triangles near where there are few (`Scene::intersect_among`, `occluded_among`): their
+/// answers are those of the
 /// traced tests at every node and every candidate, on the embedded box (one object, world
 /// space) and on the box in parts with a turned and scaled block (object transforms,
 /// `reach = "object"`).

@@ -19,7 +19,7 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::geom::sampling::{cosine_direction, integral_rotation, onb};
 use crate::geom::transform::{xform_point, xform_vector};
-use crate::geom::Ray;
+use crate::geom::{Hit, Ray};
 use crate::layout::{KdSplit, Node, ObjectInfo, Parent};
 use crate::params::{Reach, SolverParams, MAX_LEVELS};
 use crate::progress::Progress;
@@ -39,22 +39,53 @@ use weight::{clip_ok, node_weight};
 /// The rays are traced only where they can meet a wall: a node whose reach holds no
 /// triangle standing across it ([`may_meet_wall`]: most nodes, away from edges) gets the
 /// empty clip the rays would give, without tracing them.
+///
+/// Where one is, the triangles whose bounds meet the rays' cube, gathered in that one
+/// walk, are what the 8 rays are tested against ([`Scene::intersect_among`]): one BVH
+/// walk per node, not one per ray.
 pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
-    if !may_meet_wall(scene, nd, h_obj) {
+    let (origin, n, h_w) = clip_ray_origin(scene, nd, h_obj);
+    let mut near = Vec::with_capacity(NEAR_CAP + 1);
+    if !scene.triangles_near(origin, clip_reach(origin, h_w), NEAR_CAP, &mut near) {
+        // Many triangles (a coarse node's wide support): the rays traced, where they can
+        // meet a wall.
+        if !may_meet_wall(scene, nd, h_obj) {
+            return encode_clip(Vec::new());
+        }
+        return node_clip_traced(scene, h, i);
+    }
+    let wall = near.iter().any(|&(o, t)| {
+        let tri = &scene.tris[t as usize];
+        let hn = xform_vector(&scene.objects[o as usize].to_world, crate::geom::ray::tri_normal(tri)).normalize();
+        hn.dot(n).abs() < 0.5
+    });
+    if !wall {
         return encode_clip(Vec::new());
     }
-    node_clip_traced(scene, h, i)
+    let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect_among(&near, ray, tmax));
+    widen_to_neighbour_sectors(&mut planes);
+    encode_clip(planes)
 }
 
 /// [`node_clip`] with every ray traced (what the shortcut must reproduce; tests).
 pub fn node_clip_traced(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
-    let mut planes = walls_across_support(scene, nd, h_obj);
+    let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect(ray, tmax));
     widen_to_neighbour_sectors(&mut planes);
     encode_clip(planes)
+}
+
+/// The most triangles near a node or candidate that its rays are tested against one by
+/// one; beyond, they are traced through the BVH.
+const NEAR_CAP: usize = 32;
+
+/// The half-width of the cube about a clip ray origin that holds the rays (1.1 `h`), with
+/// a margin for rounding.
+fn clip_reach(origin: Vec3, h: f32) -> f32 {
+    1.1 * h * 1.01 + 1e-5 * origin.abs().max_element()
 }
 
 /// Where node `nd`'s clip rays start (world space) and its world normal and support.
@@ -72,8 +103,7 @@ fn clip_ray_origin(scene: &Scene, nd: &Node, h_obj: f32) -> (Vec3, Vec3, f32) {
 /// Where none is, every ray misses or hits a surface it ignores, and the clip is empty.
 pub fn may_meet_wall(scene: &Scene, nd: &Node, h_obj: f32) -> bool {
     let (origin, n, h) = clip_ray_origin(scene, nd, h_obj);
-    let reach = 1.1 * h * 1.01 + 1e-5 * origin.abs().max_element();
-    scene.any_triangle_near(origin, reach, |o, tri| {
+    scene.any_triangle_near(origin, clip_reach(origin, h), |o, tri| {
         let hn = xform_vector(&scene.objects[o].to_world, crate::geom::ray::tri_normal(tri)).normalize();
         hn.dot(n).abs() < 0.5
     })
@@ -150,8 +180,10 @@ pub fn cpu_clips(scene: &Scene, h: &Hierarchy, sel: &ClipSelection) -> Vec<(usiz
 /// 8 directions (bits) whose rays met it.
 type Plane = ([i16; 2], f32, u8);
 
-/// The planes the 8 tangent rays of node `nd` (support `h_obj`, object space) meet.
-fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32) -> Vec<Plane> {
+/// The planes the 8 tangent rays of node `nd` (support `h_obj`, object space) meet, with
+/// `hit(ray, tmax)` the closest hit of a world-space ray ([`Scene::intersect`] or what
+/// gives the same).
+fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32, hit: impl Fn(&Ray, f32) -> Option<Hit>) -> Vec<Plane> {
     let obj = &scene.objects[nd.object as usize];
     let n_obj = Vec3::from(nd.normal);
     let x_obj = Vec3::from(nd.pos);
@@ -162,7 +194,7 @@ fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32) -> Vec<Plane> {
         let a = k as f32 * std::f32::consts::FRAC_PI_4;
         let d_obj = t * a.cos() + b * a.sin();
         let d = xform_vector(&obj.to_world, d_obj).normalize();
-        let Some(hit) = scene.intersect(&Ray { o: origin, d }, 1.1 * h) else {
+        let Some(hit) = hit(&Ray { o: origin, d }, 1.1 * h) else {
             continue;
         };
         let hit_obj = &scene.objects[hit.object as usize];
@@ -261,17 +293,20 @@ pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32
     let n = xform_vector(&obj.to_world, c.normal).normalize();
     let origin = scene.offset(x, n);
     let below = 0.5 * (origin - x).dot(n);
-    if below > 0.0 {
-        let reach = d_min * 1.01 + 1e-5 * origin.abs().max_element();
-        let may_hit = scene.any_triangle_near(origin, reach, |oi, tri| {
-            let m = &scene.objects[oi].to_world;
-            [tri.v0, tri.v1, tri.v2]
-                .iter()
-                .any(|&v| above_plane(xform_point(m, Vec3::from(v)), origin, n, below))
-        });
-        if !may_hit {
-            return false;
-        }
+    let reach = d_min * 1.01 + 1e-5 * origin.abs().max_element();
+    let above = |oi: usize, tri: &crate::layout::Tri| {
+        let m = &scene.objects[oi].to_world;
+        [tri.v0, tri.v1, tri.v2]
+            .iter()
+            .any(|&v| above_plane(xform_point(m, Vec3::from(v)), origin, n, below))
+    };
+    if below > 0.0 && !scene.any_triangle_near(origin, reach, above) {
+        return false;
+    }
+    // Few triangles within reach: the rays tested against them, without a walk each.
+    let mut near = Vec::with_capacity(NEAR_CAP + 1);
+    if scene.triangles_near(origin, reach, NEAR_CAP, &mut near) {
+        return crevice_rays(scene, o, c, index, |ray| scene.occluded_among(&near, ray, d_min));
     }
     in_crevice_traced(scene, o, c, d_min, index)
 }
@@ -285,6 +320,12 @@ fn above_plane(v: Vec3, origin: Vec3, n: Vec3, below: f32) -> bool {
 
 /// [`in_crevice`] with every ray traced (what the shortcut must reproduce; tests).
 pub fn in_crevice_traced(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32) -> bool {
+    crevice_rays(scene, o, c, index, |ray| scene.occluded(ray, d_min))
+}
+
+/// Whether at least 7 of the crevice test's 8 world-space rays from candidate `c` are
+/// `blocked` ([`Scene::occluded`] within `d_min`, or what gives the same).
+fn crevice_rays(scene: &Scene, o: usize, c: &Candidate, index: u32, blocked: impl Fn(&Ray) -> bool) -> bool {
     let obj = &scene.objects[o];
     let x = xform_point(&obj.to_world, c.pos);
     let n = xform_vector(&obj.to_world, c.normal).normalize();
@@ -295,7 +336,7 @@ pub fn in_crevice_traced(scene: &Scene, o: usize, c: &Candidate, d_min: f32, ind
     for k in 0..8 {
         let u = Vec2::new((k as f32 + 0.5) / 8.0, (k as f32 * 0.618_034).fract());
         let d = cosine_direction(n, t, b, u, phi0);
-        if scene.occluded(&Ray { o: origin, d }, d_min) {
+        if blocked(&Ray { o: origin, d }) {
             near += 1;
         }
     }

@@ -21,7 +21,7 @@ pub use source::Source;
 
 use crate::error::{Error, Result};
 use crate::geom::bvh;
-use crate::geom::ray::{offset_origin, tri_normal, tri_point};
+use crate::geom::ray::{offset_origin, tri_normal, tri_point, WatertightRay};
 use crate::geom::transform::{xform_point, xform_vector, Affine};
 use crate::geom::{Hit, Ray, Transform};
 use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
@@ -442,6 +442,102 @@ impl Scene {
             }
             bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, co - ro, co + ro, |_, t| f(i, t))
         })
+    }
+
+    /// Every triangle whose bounds meet the world-space cube of half-width `r` about `c`
+    /// (those [`Self::any_triangle_near`] tests), as (object, global triangle) in object
+    /// order, into `out`, if there are at most `cap`; false, with `out` incomplete, if
+    /// there are more or an object's transform makes the cube's extent not finite.
+    pub fn triangles_near(&self, c: Vec3, r: f32, cap: usize, out: &mut Vec<(u32, u32)>) -> bool {
+        out.clear();
+        for (i, o) in self.objects.iter().enumerate() {
+            let co = xform_point(&o.to_object, c);
+            let ro = xform_vector(&o.to_object, Vec3::new(r, 0.0, 0.0)).length();
+            if !ro.is_finite() {
+                return false;
+            }
+            let over = bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, co - ro, co + ro, |t, _| {
+                out.push((i as u32, t));
+                out.len() > cap
+            });
+            if over {
+                return false;
+            }
+        }
+        true
+    }
+
+    /// [`Self::intersect`] for a ray that stays within a cube whose triangles `near` holds
+    /// ([`Self::triangles_near`]): the closest hit among them, found without a BVH walk.
+    /// Where another hit lies within a relative 1e-5 of it, or it lies that close to
+    /// `tmax`, the traversal's rounding could pick otherwise, and the ray is traced.
+    pub fn intersect_among(&self, near: &[(u32, u32)], ray: &Ray, tmax: f32) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut second = f32::INFINITY;
+        let mut k = 0;
+        while k < near.len() {
+            let oi = near[k].0;
+            let o = &self.objects[oi as usize];
+            let r = Ray {
+                o: xform_point(&o.to_object, ray.o),
+                d: xform_vector(&o.to_object, ray.d),
+            };
+            let wt = WatertightRay::new(&r);
+            while k < near.len() && near[k].0 == oi {
+                let tri = near[k].1;
+                k += 1;
+                let Some((t, b1, b2)) = wt.intersect(&self.tris[tri as usize], tmax) else {
+                    continue;
+                };
+                match best {
+                    Some(b) if t >= b.t => second = second.min(t),
+                    _ => {
+                        if let Some(b) = best {
+                            second = second.min(b.t);
+                        }
+                        best = Some(Hit {
+                            object: oi,
+                            tri,
+                            t,
+                            b1,
+                            b2,
+                        });
+                    }
+                }
+            }
+        }
+        match best {
+            Some(b) if second - b.t <= 1e-5 * b.t || tmax - b.t <= 1e-5 * tmax => self.intersect(ray, tmax),
+            _ => best,
+        }
+    }
+
+    /// [`Self::occluded`] for a ray that stays within a cube whose triangles `near` holds:
+    /// whether one of them is hit in `(0, tmax)`. Where every hit lies within a relative
+    /// 1e-5 of `tmax` (the traversal's rounding could cull it), the ray is traced.
+    pub fn occluded_among(&self, near: &[(u32, u32)], ray: &Ray, tmax: f32) -> bool {
+        let mut marginal = false;
+        let mut k = 0;
+        while k < near.len() {
+            let oi = near[k].0;
+            let o = &self.objects[oi as usize];
+            let r = Ray {
+                o: xform_point(&o.to_object, ray.o),
+                d: xform_vector(&o.to_object, ray.d),
+            };
+            let wt = WatertightRay::new(&r);
+            while k < near.len() && near[k].0 == oi {
+                let tri = near[k].1;
+                k += 1;
+                if let Some((t, _, _)) = wt.intersect(&self.tris[tri as usize], tmax) {
+                    if tmax - t > 1e-5 * tmax {
+                        return true;
+                    }
+                    marginal = true;
+                }
+            }
+        }
+        marginal && self.occluded(ray, tmax)
     }
 
     /// The surface at a hit, its normal turned towards the ray's origin.
