@@ -359,14 +359,40 @@ impl Grid {
         self.order.clear();
     }
 
+    /// Inserts `cs` in order, prefetching the home slots and first blocks of the cells of
+    /// the points a few ahead.
+    pub fn insert_all(&mut self, cs: &[Candidate]) {
+        const D: usize = 8;
+        while 2 * (self.used + cs.len()) > self.slots.len() {
+            self.grow();
+        }
+        for (i, c) in cs.iter().enumerate() {
+            if let Some(a) = cs.get(i + 2 * D) {
+                prefetch(&self.slots[self.home(self.cell(a.pos))]);
+            }
+            if let Some(a) = cs.get(i + D) {
+                let head = self.slots[self.home(self.cell(a.pos))].head;
+                if head != NONE {
+                    prefetch(&self.blocks[head as usize]);
+                }
+            }
+            self.insert(*c);
+        }
+    }
+
+    /// Doubles the table.
+    fn grow(&mut self) {
+        let grown = vec![FREE; self.slots.len() * 2];
+        let old = std::mem::replace(&mut self.slots, grown);
+        for s in old.into_iter().filter(|s| s.head != NONE) {
+            let i = self.slot(s.key);
+            self.slots[i] = s;
+        }
+    }
+
     pub fn insert(&mut self, c: Candidate) {
         if 2 * (self.used + 1) > self.slots.len() {
-            let grown = vec![FREE; self.slots.len() * 2];
-            let old = std::mem::replace(&mut self.slots, grown);
-            for s in old.into_iter().filter(|s| s.head != NONE) {
-                let i = self.slot(s.key);
-                self.slots[i] = s;
-            }
+            self.grow();
         }
         let key = self.cell(c.pos);
         let i = self.slot(key);
@@ -434,9 +460,7 @@ pub fn dart_throw(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool + S
                 local.insert(*c);
             }
         }
-        for c in local.points() {
-            g.insert(c);
-        }
+        g.insert_all(&local.order);
         local.clear();
     }
     g.points().collect()
