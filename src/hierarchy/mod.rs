@@ -491,6 +491,9 @@ struct GroupParents {
     parents: Vec<Parent>,
     lens: Vec<u32>,
     holes: Vec<u32>,
+    /// Scratch: the parent-level nodes near the current group, and their positions.
+    near: Vec<u32>,
+    near_pos: Vec<Vec3>,
 }
 
 /// The levels' density: each object's reachable area (world units²) and the world-space
@@ -937,12 +940,16 @@ impl Hierarchy {
         }
         let (nodes, splits, base) = self.level(o, l);
         let h = self.support(o, l);
-        let mut near = Vec::new();
+        // The nodes near the group, their positions packed for the children's scans.
+        let (near, near_pos) = (&mut out.near, &mut out.near_pos);
+        near.clear();
+        near_pos.clear();
         if lo.x <= hi.x {
             kdtree::box_leaves(splits, lo, hi, h, |i| {
                 let x = Vec3::from(nodes[i].pos);
                 if x.cmpgt(lo - h).all() && x.cmplt(hi + h).all() {
                     near.push(i as u32);
+                    near_pos.push(x);
                 }
             });
         }
@@ -957,13 +964,11 @@ impl Hierarchy {
             let nd = &self.nodes[c];
             let (p, nrm) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
             let mut sum = 0.0f32;
-            for &i in &near {
-                let nj = &nodes[i as usize];
-                let x = Vec3::from(nj.pos);
+            for (&i, &x) in out.near.iter().zip(&out.near_pos) {
                 if (x - p).length_squared() >= r2 {
                     continue;
                 }
-                let nn = Vec3::from(nj.normal);
+                let nn = Vec3::from(nodes[i as usize].normal);
                 let w = node_weight(p, nrm, x, nn, h, self.alpha);
                 if w > 0.0 && clip_ok(&self.clips[base + i as usize], p - x, nn, h) {
                     out.parents.push(Parent {
@@ -1014,6 +1019,8 @@ impl Hierarchy {
                     parents: Vec::new(),
                     lens: Vec::new(),
                     holes: vec![0; m],
+                    near: Vec::new(),
+                    near_pos: Vec::new(),
                 };
                 for g in run {
                     self.parents_of_group(g.clone(), dirty, &mut out);
