@@ -945,9 +945,12 @@ impl Hierarchy {
         near.clear();
         near_pos.clear();
         if lo.x <= hi.x {
+            // A loose prefilter (its margin covers the rounding of `lo - h`); the exact
+            // test is the distance below.
+            let m = 1.01 * h + 1e-6 * lo.abs().max(hi.abs()).max_element();
             kdtree::box_leaves(splits, lo, hi, h, |i| {
                 let x = Vec3::from(nodes[i].pos);
-                if x.cmpgt(lo - h).all() && x.cmplt(hi + h).all() {
+                if x.cmpgt(lo - m).all() && x.cmplt(hi + m).all() {
                     near.push(i as u32);
                     near_pos.push(x);
                 }
