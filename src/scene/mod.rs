@@ -467,6 +467,33 @@ impl Scene {
         true
     }
 
+    /// Calls `f(object, triangle, t, b1, b2)` for each triangle of `near` (object order, as
+    /// [`Self::triangles_near`] gives them) that the world-space `ray` hits in `(0, tmax)`,
+    /// by the watertight test of [`bvh::trace`] in the object's space, until `f` returns
+    /// true.
+    fn hits_among(
+        &self,
+        near: &[(u32, u32)],
+        ray: &Ray,
+        tmax: f32,
+        mut f: impl FnMut(u32, u32, f32, f32, f32) -> bool,
+    ) {
+        for run in near.chunk_by(|a, b| a.0 == b.0) {
+            let o = &self.objects[run[0].0 as usize];
+            let wt = WatertightRay::new(&Ray {
+                o: xform_point(&o.to_object, ray.o),
+                d: xform_vector(&o.to_object, ray.d),
+            });
+            for &(oi, tri) in run {
+                if let Some((t, b1, b2)) = wt.intersect(&self.tris[tri as usize], tmax) {
+                    if f(oi, tri, t, b1, b2) {
+                        return;
+                    }
+                }
+            }
+        }
+    }
+
     /// [`Self::intersect`] for a ray that stays within a cube whose triangles `near` holds
     /// ([`Self::triangles_near`]): the closest hit among them, found without a BVH walk.
     /// Where another hit lies within a relative 1e-5 of it, or it lies that close to
@@ -474,38 +501,18 @@ impl Scene {
     pub fn intersect_among(&self, near: &[(u32, u32)], ray: &Ray, tmax: f32) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut second = f32::INFINITY;
-        let mut k = 0;
-        while k < near.len() {
-            let oi = near[k].0;
-            let o = &self.objects[oi as usize];
-            let r = Ray {
-                o: xform_point(&o.to_object, ray.o),
-                d: xform_vector(&o.to_object, ray.d),
-            };
-            let wt = WatertightRay::new(&r);
-            while k < near.len() && near[k].0 == oi {
-                let tri = near[k].1;
-                k += 1;
-                let Some((t, b1, b2)) = wt.intersect(&self.tris[tri as usize], tmax) else {
-                    continue;
-                };
-                match best {
-                    Some(b) if t >= b.t => second = second.min(t),
-                    _ => {
-                        if let Some(b) = best {
-                            second = second.min(b.t);
-                        }
-                        best = Some(Hit {
-                            object: oi,
-                            tri,
-                            t,
-                            b1,
-                            b2,
-                        });
+        self.hits_among(near, ray, tmax, |object, tri, t, b1, b2| {
+            match best {
+                Some(b) if t >= b.t => second = second.min(t),
+                _ => {
+                    if let Some(b) = best {
+                        second = second.min(b.t);
                     }
+                    best = Some(Hit { object, tri, t, b1, b2 });
                 }
             }
-        }
+            false
+        });
         match best {
             Some(b) if second - b.t <= 1e-5 * b.t || tmax - b.t <= 1e-5 * tmax => self.intersect(ray, tmax),
             _ => best,
@@ -516,28 +523,16 @@ impl Scene {
     /// whether one of them is hit in `(0, tmax)`. Where every hit lies within a relative
     /// 1e-5 of `tmax` (the traversal's rounding could cull it), the ray is traced.
     pub fn occluded_among(&self, near: &[(u32, u32)], ray: &Ray, tmax: f32) -> bool {
-        let mut marginal = false;
-        let mut k = 0;
-        while k < near.len() {
-            let oi = near[k].0;
-            let o = &self.objects[oi as usize];
-            let r = Ray {
-                o: xform_point(&o.to_object, ray.o),
-                d: xform_vector(&o.to_object, ray.d),
-            };
-            let wt = WatertightRay::new(&r);
-            while k < near.len() && near[k].0 == oi {
-                let tri = near[k].1;
-                k += 1;
-                if let Some((t, _, _)) = wt.intersect(&self.tris[tri as usize], tmax) {
-                    if tmax - t > 1e-5 * tmax {
-                        return true;
-                    }
-                    marginal = true;
-                }
+        let (mut clear, mut marginal) = (false, false);
+        self.hits_among(near, ray, tmax, |_, _, t, _, _| {
+            if tmax - t > 1e-5 * tmax {
+                clear = true;
+            } else {
+                marginal = true;
             }
-        }
-        marginal && self.occluded(ray, tmax)
+            clear
+        });
+        clear || (marginal && self.occluded(ray, tmax))
     }
 
     /// The surface at a hit, its normal turned towards the ray's origin.
