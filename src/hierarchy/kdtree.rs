@@ -11,17 +11,14 @@ use crate::layout::{KdSplit, Node};
 /// Stack entries for traversal: enough for 2^31 nodes.
 pub const KD_STACK: usize = crate::constants::KD_STACK as usize;
 
-/// Reorders `nodes` into kd order and fills `splits` (same length).
+/// Reorders `nodes` into kd order and fills `splits` (same length). Large ranges build
+/// their halves in parallel: the same tree on any number of threads.
 pub fn build(nodes: &mut [Node], splits: &mut [KdSplit]) {
-    build_range(nodes, splits, 0, nodes.len());
-}
-
-fn build_range(nodes: &mut [Node], splits: &mut [KdSplit], lo: usize, hi: usize) {
-    if hi - lo < 2 {
+    if nodes.len() < 2 {
         return;
     }
     let (mut a, mut b) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
-    for n in &nodes[lo..hi] {
+    for n in nodes.iter() {
         a = a.min(Vec3::from(n.pos));
         b = b.max(Vec3::from(n.pos));
     }
@@ -33,14 +30,21 @@ fn build_range(nodes: &mut [Node], splits: &mut [KdSplit], lo: usize, hi: usize)
     } else {
         2
     };
-    let mid = (lo + hi) / 2;
-    nodes[lo..hi].select_nth_unstable_by(mid - lo, |p, q| p.pos[dim].total_cmp(&q.pos[dim]));
+    // The range [lo, hi) splits at (lo + hi) / 2 = lo + len / 2: local index len / 2.
+    let mid = nodes.len() / 2;
+    nodes.select_nth_unstable_by(mid, |p, q| p.pos[dim].total_cmp(&q.pos[dim]));
     splits[mid] = KdSplit {
         value: nodes[mid].pos[dim],
         dim: dim as u32,
     };
-    build_range(nodes, splits, lo, mid);
-    build_range(nodes, splits, mid, hi);
+    let (nl, nr) = nodes.split_at_mut(mid);
+    let (sl, sr) = splits.split_at_mut(mid);
+    if nl.len() + nr.len() >= 1 << 15 {
+        rayon::join(|| build(nl, sl), || build(nr, sr));
+    } else {
+        build(nl, sl);
+        build(nr, sr);
+    }
 }
 
 /// Near-first traversal of the leaves whose node may lie within `r` of `p`: calls
