@@ -48,19 +48,18 @@ pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
     let h_obj = h.support(nd.object as usize, nd.level as usize);
     let (origin, n, h_w) = clip_ray_origin(scene, nd, h_obj);
     let mut near = Vec::with_capacity(NEAR_CAP + 1);
-    if !scene.triangles_near(origin, clip_reach(origin, h_w), NEAR_CAP, &mut near) {
+    let all = scene.triangles_near(origin, clip_reach(origin, h_w), NEAR_CAP, &mut near);
+    let wall = near
+        .iter()
+        .any(|&(o, t)| world_normal(scene, o as usize, t).dot(n).abs() < 0.5);
+    if !all {
         // Many triangles (a coarse node's wide support): the rays traced, where they can
-        // meet a wall.
-        if !may_meet_wall(scene, nd, h_obj) {
+        // meet a wall (one among those gathered, or else one the whole query finds).
+        if !wall && !may_meet_wall(scene, nd, h_obj) {
             return encode_clip(Vec::new());
         }
         return node_clip_traced(scene, h, i);
     }
-    let wall = near.iter().any(|&(o, t)| {
-        let tri = &scene.tris[t as usize];
-        let hn = xform_vector(&scene.objects[o as usize].to_world, crate::geom::ray::tri_normal(tri)).normalize();
-        hn.dot(n).abs() < 0.5
-    });
     if !wall {
         return encode_clip(Vec::new());
     }
@@ -104,9 +103,18 @@ fn clip_ray_origin(scene: &Scene, nd: &Node, h_obj: f32) -> (Vec3, Vec3, f32) {
 pub fn may_meet_wall(scene: &Scene, nd: &Node, h_obj: f32) -> bool {
     let (origin, n, h) = clip_ray_origin(scene, nd, h_obj);
     scene.any_triangle_near(origin, clip_reach(origin, h), |o, tri| {
-        let hn = xform_vector(&scene.objects[o].to_world, crate::geom::ray::tri_normal(tri)).normalize();
-        hn.dot(n).abs() < 0.5
+        world_normal_of(scene, o, tri).dot(n).abs() < 0.5
     })
+}
+
+/// The world-space unit normal of global triangle `t` of object `o`, as the clip rays
+/// compute it for the surface they hit.
+fn world_normal(scene: &Scene, o: usize, t: u32) -> Vec3 {
+    world_normal_of(scene, o, &scene.tris[t as usize])
+}
+
+fn world_normal_of(scene: &Scene, o: usize, tri: &crate::layout::Tri) -> Vec3 {
+    xform_vector(&scene.objects[o].to_world, crate::geom::ray::tri_normal(tri)).normalize()
 }
 
 /// The nodes whose support clip an arrangement computes: all of them, or after objects
@@ -197,9 +205,7 @@ fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32, hit: impl Fn(&Ray,
         let Some(hit) = hit(&Ray { o: origin, d }, 1.1 * h) else {
             continue;
         };
-        let hit_obj = &scene.objects[hit.object as usize];
-        let tri = &scene.tris[hit.tri as usize];
-        let hn = xform_vector(&hit_obj.to_world, crate::geom::ray::tri_normal(tri)).normalize();
+        let hn = world_normal(scene, hit.object as usize, hit.tri);
         if hn.dot(n).abs() >= 0.5 {
             continue;
         }
