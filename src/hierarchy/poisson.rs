@@ -182,8 +182,13 @@ impl Grid {
 
     /// The slot holding `k`, or the free slot where it would go.
     fn slot(&self, k: [i32; 3]) -> usize {
+        self.probe(self.home(k), k)
+    }
+
+    /// [`Self::slot`] from `k`'s home slot `i`, computed earlier.
+    #[inline]
+    fn probe(&self, mut i: usize, k: [i32; 3]) -> usize {
         let mask = self.slots.len() - 1;
-        let mut i = self.home(k);
         loop {
             let s = &self.slots[i];
             if s.head == NONE || s.key == k {
@@ -219,12 +224,13 @@ impl Grid {
     /// [`Self::conflicts`] for many candidates at once: `keep(i)` is called, in order, for
     /// the indices of `cands` that conflict with no point. Dart throwing waits on memory
     /// (cache misses for cells and their blocks), so each stage runs as a pipeline:
-    /// candidate `i + 3D` prefetches its cells' slots, candidate `i + 2D` their first
-    /// blocks, candidate `i + D` their second blocks (cells of more than two points),
-    /// candidate `i` is tested.
+    /// candidate `i + 3D` computes its cells and prefetches their home slots, candidate
+    /// `i + 2D` finds the slots and prefetches their first blocks, candidate `i + D` their
+    /// second blocks (cells of more than two points), candidate `i` is tested against the
+    /// blocks found, nothing computed twice.
     pub fn open_candidates(&self, cands: &[Candidate], mut keep: impl FnMut(usize)) {
         // First the own cell alone (two lines to fetch, where most rejections happen),
-        // then the whole neighbourhood for the candidates it leaves open.
+        // then the other cells of the neighbourhood for the candidates it leaves open.
         let mut left = Vec::with_capacity(cands.len());
         self.open_in_own_cell(cands, |i| left.push(i));
         self.open_in_neighbourhood(cands, &left, &mut keep);
@@ -248,26 +254,24 @@ impl Grid {
         false
     }
 
-    /// Whether the own cell of `c` holds a point on the same side closer than `r`.
-    fn conflicts_in_own_cell(&self, c: &Candidate) -> bool {
-        self.cell_conflicts(self.slots[self.slot(self.cell(c.pos))].head, c)
-    }
-
     /// The indices of `cands` whose own cell does not reject them, in order: a pipeline
     /// as in [`Self::open_in_neighbourhood`], one cell per candidate.
     fn open_in_own_cell(&self, cands: &[Candidate], mut keep: impl FnMut(usize)) {
         const D: usize = 8;
         const RING: usize = 4 * D;
+        let mut keys = [[0i32; 3]; RING];
         let mut homes = [0usize; RING];
         let mut heads = [NONE; RING];
         for i in 0..cands.len() + 3 * D {
             if i < cands.len() {
-                let h = self.home(self.cell(cands[i].pos));
+                let k = self.cell(cands[i].pos);
+                let h = self.home(k);
                 prefetch(&self.slots[h]);
+                keys[i % RING] = k;
                 homes[i % RING] = h;
             }
             if let Some(b) = i.checked_sub(D).filter(|&b| b < cands.len()) {
-                let head = self.slots[homes[b % RING]].head;
+                let head = self.slots[self.probe(homes[b % RING], keys[b % RING])].head;
                 if head != NONE {
                     prefetch(&self.blocks[head as usize]);
                 }
@@ -277,57 +281,79 @@ impl Grid {
                 self.prefetch_next(heads[b % RING]);
             }
             if let Some(t) = i.checked_sub(3 * D).filter(|&t| t < cands.len()) {
-                if !self.conflicts_in_own_cell(&cands[t]) {
+                if !self.cell_conflicts(heads[t % RING], &cands[t]) {
                     keep(t);
                 }
             }
         }
     }
 
-    /// [`Self::conflicts`] for the candidates `which` of `cands`, as a pipeline.
+    /// Whether a cell of the neighbourhood of the candidates `which` of `all`, other than
+    /// their own cells (which [`Self::open_in_own_cell`] tested), holds a conflicting
+    /// point; `keep` gets the others, in order. A pipeline: candidate `i + 3D` prefetches
+    /// its cells' home slots, candidate `i + 2D` finds the slots and prefetches their
+    /// first blocks, candidate `i + D` their second blocks, candidate `i` is tested.
     fn open_in_neighbourhood(&self, all: &[Candidate], which: &[usize], mut keep: impl FnMut(usize)) {
         const D: usize = 8;
         const RING: usize = 4 * D;
-        let mut homes = [[0usize; 8]; RING];
-        let mut heads = [[NONE; 8]; RING];
+        // Every point within r lies in a cell between those of p - r and p + r (rounding
+        // is monotonic); cells are 2r wide, so two per axis, three where p ± r rounds
+        // across one more border: 26 other cells. (More only where r is near the ulp of
+        // the coordinates: such a candidate takes the plain test.)
+        const MAX: usize = 26;
+        let mut keys = [[[0i32; 3]; MAX]; RING];
+        let mut homes = [[0usize; MAX]; RING];
+        let mut heads = [[NONE; MAX]; RING];
         let mut counts = [0usize; RING];
         for i in 0..which.len() + 3 * D {
-            let a = i;
-            if a < which.len() {
-                let c = &all[which[a]];
+            if i < which.len() {
+                let c = &all[which[i]];
+                let own = self.cell(c.pos);
                 let lo = self.cell(c.pos - Vec3::splat(self.r));
                 let hi = self.cell(c.pos + Vec3::splat(self.r));
                 let mut n = 0;
                 for x in lo[0]..=hi[0] {
                     for y in lo[1]..=hi[1] {
                         for z in lo[2]..=hi[2] {
-                            if n < 8 {
-                                let h = self.home([x, y, z]);
-                                prefetch(&self.slots[h]);
-                                homes[a % RING][n] = h;
+                            let k = [x, y, z];
+                            if k != own {
+                                if n < MAX {
+                                    let h = self.home(k);
+                                    prefetch(&self.slots[h]);
+                                    keys[i % RING][n] = k;
+                                    homes[i % RING][n] = h;
+                                }
+                                n += 1;
                             }
-                            n += 1;
                         }
                     }
                 }
-                counts[a % RING] = n.min(8);
+                counts[i % RING] = n;
             }
             if let Some(b) = i.checked_sub(D).filter(|&b| b < which.len()) {
-                for k in 0..counts[b % RING] {
-                    let head = self.slots[homes[b % RING][k]].head;
+                let e = b % RING;
+                for k in 0..counts[e].min(MAX) {
+                    let head = self.slots[self.probe(homes[e][k], keys[e][k])].head;
                     if head != NONE {
                         prefetch(&self.blocks[head as usize]);
                     }
-                    heads[b % RING][k] = head;
+                    heads[e][k] = head;
                 }
             }
             if let Some(b) = i.checked_sub(2 * D).filter(|&b| b < which.len()) {
-                for &head in &heads[b % RING][..counts[b % RING]] {
+                for &head in &heads[b % RING][..counts[b % RING].min(MAX)] {
                     self.prefetch_next(head);
                 }
             }
             if let Some(t) = i.checked_sub(3 * D).filter(|&t| t < which.len()) {
-                if !self.conflicts(&all[which[t]]) {
+                let c = &all[which[t]];
+                let e = t % RING;
+                let conflict = if counts[e] > MAX {
+                    self.conflicts(c)
+                } else {
+                    heads[e][..counts[e]].iter().any(|&h| self.cell_conflicts(h, c))
+                };
+                if !conflict {
                     keep(which[t]);
                 }
             }
@@ -444,13 +470,11 @@ pub fn dart_throw(pool: &[Candidate], r: f32, usable: impl Fn(usize) -> bool + S
             .par_chunks(BLOCK)
             .enumerate()
             .flat_map_iter(|(b, block)| {
+                // The grid's pipeline first, then the crevice tests of what it leaves open
+                // (their rays would evict the lines it prefetched).
                 let mut open = Vec::new();
-                g_ref.open_candidates(block, |i| {
-                    let i = b * BLOCK + i;
-                    if usable(base + i) {
-                        open.push(i as u32);
-                    }
-                });
+                g_ref.open_candidates(block, |i| open.push((b * BLOCK + i) as u32));
+                open.retain(|&i| usable(base + i as usize));
                 open
             })
             .collect();
@@ -480,6 +504,71 @@ pub fn dart_throw_sequential(pool: &[Candidate], r: f32, usable: impl Fn(usize) 
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
+    /// The pipelined test ([`Grid::open_candidates`]) keeps exactly the candidates that
+    /// [`Grid::conflicts`] clears, including those whose neighbourhood spans three cells on
+    /// an axis (rounding of `p ± r`).
+    #[test]
+    fn pipelined_test_equals_plain_test() {
+        let mut rng = Rng::new(17, 0);
+        let mut spans3 = 0;
+        for &r in &[0.1f32, 0.3, 1.7, 1e-3] {
+            let mut g = Grid::new(r);
+            let cell = 2.0 * r;
+            // Points and candidates crowd the cell borders (multiples of 2r) on a few
+            // planes, both sides, so that a cell's neighbourhood often has 2 or 3 cells.
+            let at = |rng: &mut Rng| {
+                let k = (rng.next_f32() * 40.0).floor();
+                let jitter = (rng.next_f32() - 0.5) * r * [1e-5, 1e-2, 1.0][(rng.next_f32() * 3.0) as usize % 3];
+                k * cell + jitter
+            };
+            let point = |rng: &mut Rng| Candidate {
+                pos: Vec3::new(at(rng), at(rng), (rng.next_f32() * 3.0).floor() * r * 0.5),
+                normal: if rng.next_f32() < 0.8 { Vec3::Z } else { -Vec3::Z },
+            };
+            let pts: Vec<Candidate> = (0..3000).map(|_| point(&mut rng)).collect();
+            let mut cands: Vec<Candidate> = (0..20_000).map(|_| point(&mut rng)).collect();
+            // Far from the origin, where p ± r rounds by more: x a few ulps above r past a
+            // cell border, so that p - r may round below it and p + r past the next one.
+            for k in 0..2000 {
+                let border = (1000.0 + (k % 40) as f32) * cell;
+                let x = f32::from_bits((border + r).to_bits().wrapping_add(k / 40) - 20);
+                cands.push(Candidate {
+                    pos: Vec3::new(x, at(&mut rng), 0.0),
+                    normal: Vec3::Z,
+                });
+                g.insert(Candidate {
+                    pos: Vec3::new(x - 0.99 * r, cands.last().unwrap().pos.y, 0.0),
+                    normal: if k % 2 == 0 { Vec3::Z } else { -Vec3::Z },
+                });
+            }
+            g.insert_all(&pts);
+            let mut got = Vec::new();
+            g.open_candidates(&cands, |i| got.push(i));
+            let want: Vec<usize> = (0..cands.len()).filter(|&i| !g.conflicts(&cands[i])).collect();
+            let first = got.iter().zip(&want).position(|(a, b)| a != b);
+            assert!(
+                got == want,
+                "r = {r}: {} kept against {}, first difference at {first:?}",
+                got.len(),
+                want.len()
+            );
+            assert!(
+                !want.is_empty() && want.len() < cands.len(),
+                "r = {r}: a test that can tell"
+            );
+            spans3 += cands
+                .iter()
+                .filter(|c| {
+                    let (lo, hi) = (g.cell(c.pos - Vec3::splat(r)), g.cell(c.pos + Vec3::splat(r)));
+                    (0..3).any(|a| hi[a] - lo[a] >= 2)
+                })
+                .count();
+        }
+        assert!(spans3 > 0, "no neighbourhood of three cells on an axis");
+    }
+
     #[test]
     fn floor_i32_is_floor() {
         let mut v = vec![
