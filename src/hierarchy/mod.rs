@@ -497,9 +497,14 @@ struct GroupParents {
     parents: Vec<Parent>,
     lens: Vec<u32>,
     holes: Vec<u32>,
-    /// Scratch: the parent-level nodes near the current group, and their positions.
+    /// Scratch: the parent-level nodes near the current group, their positions by
+    /// coordinate (a child's distances to all of them in one vectorised loop), and the
+    /// ones within the support of the current child.
     near: Vec<u32>,
-    near_pos: Vec<Vec3>,
+    near_x: Vec<f32>,
+    near_y: Vec<f32>,
+    near_z: Vec<f32>,
+    within: Vec<u32>,
 }
 
 /// The levels' density: each object's reachable area (world units²) and the world-space
@@ -947,9 +952,10 @@ impl Hierarchy {
         let (nodes, splits, base) = self.level(o, l);
         let h = self.support(o, l);
         // The nodes near the group, their positions packed for the children's scans.
-        let (near, near_pos) = (&mut out.near, &mut out.near_pos);
-        near.clear();
-        near_pos.clear();
+        out.near.clear();
+        out.near_x.clear();
+        out.near_y.clear();
+        out.near_z.clear();
         if lo.x <= hi.x {
             // A loose prefilter (its margin covers the rounding of `lo - h`); the exact
             // test is the distance below.
@@ -957,8 +963,10 @@ impl Hierarchy {
             kdtree::box_leaves(splits, lo, hi, h, |i| {
                 let x = Vec3::from(nodes[i].pos);
                 if x.cmpgt(lo - m).all() && x.cmplt(hi + m).all() {
-                    near.push(i as u32);
-                    near_pos.push(x);
+                    out.near.push(i as u32);
+                    out.near_x.push(x.x);
+                    out.near_y.push(x.y);
+                    out.near_z.push(x.z);
                 }
             });
         }
@@ -972,11 +980,21 @@ impl Hierarchy {
             }
             let nd = &self.nodes[c];
             let (p, nrm) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
+            // The near nodes within the support, in order: `(x − p)²` as
+            // `length_squared` sums it, for all at once, then compacted without branches.
+            let k = out.near.len();
+            out.within.clear();
+            out.within.resize(k, 0);
+            let mut m = 0;
+            for (j, ((&x, &y), &z)) in out.near_x.iter().zip(&out.near_y).zip(&out.near_z).enumerate() {
+                let (dx, dy, dz) = (x - p.x, y - p.y, z - p.z);
+                out.within[m] = j as u32;
+                m += usize::from(dx * dx + dy * dy + dz * dz < r2);
+            }
             let mut sum = 0.0f32;
-            for (&i, &x) in out.near.iter().zip(&out.near_pos) {
-                if (x - p).length_squared() >= r2 {
-                    continue;
-                }
+            for &j in &out.within[..m] {
+                let i = out.near[j as usize];
+                let x = Vec3::new(out.near_x[j as usize], out.near_y[j as usize], out.near_z[j as usize]);
                 let nn = Vec3::from(nodes[i as usize].normal);
                 let w = node_weight(p, nrm, x, nn, h, self.alpha);
                 if w > 0.0 && clip_ok(&self.clips[base + i as usize], p - x, nn, h) {
@@ -1029,7 +1047,10 @@ impl Hierarchy {
                     lens: Vec::new(),
                     holes: vec![0; m],
                     near: Vec::new(),
-                    near_pos: Vec::new(),
+                    near_x: Vec::new(),
+                    near_y: Vec::new(),
+                    near_z: Vec::new(),
+                    within: Vec::new(),
                 };
                 for g in run {
                     self.parents_of_group(g.clone(), dirty, &mut out);
