@@ -63,6 +63,17 @@ pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
     if !wall {
         return encode_clip(Vec::new());
     }
+    // The 8 rays lie in one plane (through `origin`, normal `n`): a triangle wholly on one
+    // side of it, by more than the rays' drift off the plane and the rounding, cannot be
+    // hit, and is dropped (a floor under the rays, a shelf above them).
+    let margin = 1e-3 * h_w as f64 + 1e-5 * origin.abs().max_element() as f64;
+    near.retain(|&(o, t)| {
+        let m = &scene.objects[o as usize].to_world;
+        let tri = &scene.tris[t as usize];
+        let s = [tri.v0, tri.v1, tri.v2]
+            .map(|v| (xform_point(m, Vec3::from(v)).as_dvec3() - origin.as_dvec3()).dot(n.as_dvec3()));
+        s.iter().any(|&x| x >= -margin) && s.iter().any(|&x| x <= margin)
+    });
     let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect_among(&near, ray, tmax));
     widen_to_neighbour_sectors(&mut planes);
     encode_clip(planes)
