@@ -194,6 +194,10 @@ pub struct CpuBackend<'a> {
     /// The links were handed over from an earlier solve of the same geometry
     /// ([`CpuBackend::keep_links`]): the next solve reads them instead of dropping them.
     keep_links: bool,
+    /// Each node's children with at most `sparse_parents` parents (CSR: offsets, then
+    /// children), the ones `refine` activates under a lit node the oracle trusts: found
+    /// once, not in every bounce. Empty where `sparse_parents` is 0 or the variant is delta.
+    sparse_children: (Vec<u32>, Vec<u32>),
     progress: Progress,
 }
 
@@ -202,6 +206,49 @@ pub struct CpuBackend<'a> {
 fn link_capacity(scene: &Scene, p: &SolverParams) -> u64 {
     let left = scene.limits.max_memory as f64 - scene.report.planned_bytes;
     ((p.link_memory as u64) << 20).min(left.max(0.0) as u64)
+}
+
+/// Predicted value at node `j` of level `l ≥ 1` from the coarser levels of `next` (the
+/// values of the levels above `l`: every index the prediction reads is below `l`'s).
+fn predict(h: &Hierarchy, p: &SolverParams, next: &[Vec4], j: usize) -> Vec3 {
+    let nd = &h.nodes[j];
+    if p.variant.is_delta() {
+        reconstruct::delta_sum(
+            h,
+            nd.object as usize,
+            nd.level as usize - 1,
+            Vec3::from(nd.pos),
+            Vec3::from(nd.normal),
+            next,
+        )
+    } else {
+        pull_down(h, next, j).xyz()
+    }
+}
+
+/// Each node's children with at most `k` parents, as CSR (empty for `k` = 0).
+fn sparse_children(h: &Hierarchy, k: u32) -> (Vec<u32>, Vec<u32>) {
+    if k == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let lists: Vec<Vec<u32>> = (0..h.nodes.len())
+        .into_par_iter()
+        .map(|j| {
+            h.children_of(j)
+                .iter()
+                .copied()
+                .filter(|&c| h.parents_of(c as usize).len() <= k as usize)
+                .collect()
+        })
+        .collect();
+    let mut offsets = Vec::with_capacity(lists.len() + 1);
+    let mut all = Vec::new();
+    for l in &lists {
+        offsets.push(all.len() as u32);
+        all.extend_from_slice(l);
+    }
+    offsets.push(all.len() as u32);
+    (offsets, all)
 }
 
 impl<'a> CpuBackend<'a> {
@@ -224,6 +271,7 @@ impl<'a> CpuBackend<'a> {
             links: (p.variant == Variant::Approx && p.link_memory > 0)
                 .then(|| Links::new(n, p.rays as usize, link_capacity(scene, p))),
             keep_links: false,
+            sparse_children: sparse_children(h, if p.variant.is_delta() { 0 } else { p.sparse_parents }),
             progress: progress.clone(),
         }
     }
@@ -268,23 +316,6 @@ impl<'a> CpuBackend<'a> {
             self.h.level_range(level as usize).map(|j| j as u32).collect()
         } else {
             self.active.clone()
-        }
-    }
-
-    /// Predicted value at node `j` of level `l ≥ 1` from the coarser levels of `next`.
-    fn predict(&self, j: usize) -> Vec3 {
-        let nd = &self.h.nodes[j];
-        if self.p.variant.is_delta() {
-            reconstruct::delta_sum(
-                self.h,
-                nd.object as usize,
-                nd.level as usize - 1,
-                Vec3::from(nd.pos),
-                Vec3::from(nd.normal),
-                &self.next,
-            )
-        } else {
-            pull_down(self.h, &self.next, j).xyz()
         }
     }
 }
@@ -423,49 +454,57 @@ impl Backend for CpuBackend<'_> {
     fn refine(&mut self, level: u32, activate: bool, sparse: u32) -> Result<Refined> {
         let range = self.h.level_range(level as usize);
         let delta = self.p.variant.is_delta();
-        let out: Vec<(Vec4, bool)> = range
-            .clone()
-            .into_par_iter()
-            .map(|j| {
-                let g = &self.gathered[j];
-                let active = self.is_active[j];
-                if level == 0 {
-                    return (g.mean.extend(0.0), false);
-                }
-                let pred = self.predict(j);
-                match (active, delta) {
-                    (true, false) => (g.mean.extend(0.0), oracle(&self.p, g, pred, self.mean_direct)),
-                    (true, true) => ((g.mean - pred).extend(0.0), oracle(&self.p, g, pred, self.mean_direct)),
-                    (false, false) => (pred.extend(0.0), false),
-                    (false, true) => (Vec4::ZERO, false),
+        let sparse = if delta { 0 } else { sparse as usize };
+        debug_assert!(sparse == 0 || sparse == self.p.sparse_parents as usize);
+        let floor = self.mean_direct * self.p.eps_abs;
+        // The level's new values go straight into `next`; predictions read the coarser
+        // levels only. Per node: 1 refined, 2 a lit node whose sparse children are gathered
+        // even where the oracle trusts the pull-down (kernel `oracle` does the same), 0.
+        let (coarse, rest) = self.next.split_at_mut(range.start);
+        let (h, p, gathered, is_active, mean_direct) =
+            (self.h, &self.p, &self.gathered, &self.is_active, self.mean_direct);
+        let marks: Vec<u8> = rest[..range.len()]
+            .par_iter_mut()
+            .enumerate()
+            .map(|(k, next)| {
+                let j = range.start + k;
+                let g = &gathered[j];
+                let (v, r) = match (level, is_active[j], delta) {
+                    (0, _, _) => (g.mean.extend(0.0), false),
+                    (_, false, true) => (Vec4::ZERO, false),
+                    (_, active, _) => {
+                        let pred = predict(h, p, coarse, j);
+                        match (active, delta) {
+                            (true, false) => (g.mean.extend(0.0), oracle(p, g, pred, mean_direct)),
+                            (true, true) => ((g.mean - pred).extend(0.0), oracle(p, g, pred, mean_direct)),
+                            _ => (pred.extend(0.0), false),
+                        }
+                    }
+                };
+                *next = v;
+                if r {
+                    1
+                } else if activate && sparse > 0 && v.xyz().cmpgt(floor).any() {
+                    2
+                } else {
+                    0
                 }
             })
             .collect();
-        let mut refined = 0;
-        let mut flags = vec![false; if activate { self.h.nodes.len() } else { 0 }];
-        let sparse = if delta { 0 } else { sparse as usize };
-        let floor = self.mean_direct * self.p.eps_abs;
-        for (j, (v, r)) in range.zip(out) {
-            self.next[j] = v;
-            // A lit node's sparse children are gathered even where the oracle trusts the
-            // pull-down (kernel `oracle` does the same).
-            if activate && sparse > 0 && !r && v.xyz().cmpgt(floor).any() {
-                for &c in self.h.children_of(j) {
-                    if self.h.parents_of(c as usize).len() <= sparse {
-                        flags[c as usize] = true;
-                    }
-                }
-            }
-            if r {
-                refined += 1;
-                if activate {
-                    for &c in self.h.children_of(j) {
-                        flags[c as usize] = true;
-                    }
-                }
-            }
-        }
+        let refined = marks.iter().filter(|&&m| m == 1).count() as u32;
         if activate {
+            let mut flags = vec![false; self.h.nodes.len()];
+            let (offsets, sparse_children) = &self.sparse_children;
+            for (j, &m) in range.zip(&marks) {
+                let children = match m {
+                    1 => self.h.children_of(j),
+                    2 => &sparse_children[offsets[j] as usize..offsets[j + 1] as usize],
+                    _ => continue,
+                };
+                for &c in children {
+                    flags[c as usize] = true;
+                }
+            }
             let next_range = self.h.level_range(level as usize + 1);
             self.active = next_range.filter(|&c| flags[c]).map(|c| c as u32).collect();
         }
