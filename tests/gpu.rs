@@ -291,6 +291,21 @@ fn kernels_of_the_refinement_match_cpu() {
                 "{variant:?}: sparse_parents activated nothing ({} against {activated}): the test does not exercise it",
                 r0.activated
             );
+            // A backend whose own bound differs from the one `refine` is given counts the
+            // parents itself (its listed sparse children are for its own bound).
+            let mut p2 = p.clone();
+            p2.sparse_parents = 1;
+            let mut c2 = CpuBackend::new(&s, &h, &p2, &Progress::hidden());
+            c2.direct().unwrap();
+            c2.init_unshot().unwrap();
+            c2.gather(0, p2.exact_first_bounce).unwrap();
+            c2.refine(0, false, p.sparse_parents).unwrap();
+            c2.gather(1, p2.exact_first_bounce).unwrap();
+            let r2 = c2.refine(1, true, p.sparse_parents).unwrap();
+            assert_eq!(
+                r2.activated, activated,
+                "{variant:?}: activations with another backend bound"
+            );
         }
     }
 }

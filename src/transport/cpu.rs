@@ -455,7 +455,6 @@ impl Backend for CpuBackend<'_> {
         let range = self.h.level_range(level as usize);
         let delta = self.p.variant.is_delta();
         let sparse = if delta { 0 } else { sparse as usize };
-        debug_assert!(sparse == 0 || sparse == self.p.sparse_parents as usize);
         let floor = self.mean_direct * self.p.eps_abs;
         // The level's new values go straight into `next`; predictions read the coarser
         // levels only. Per node: 1 refined, 2 a lit node whose sparse children are gathered
@@ -494,11 +493,22 @@ impl Backend for CpuBackend<'_> {
         let refined = marks.iter().filter(|&&m| m == 1).count() as u32;
         if activate {
             let mut flags = vec![false; self.h.nodes.len()];
-            let (offsets, sparse_children) = &self.sparse_children;
+            // The lists made for the backend's `sparse_parents`; another bound (a caller's
+            // own) counts parents here.
+            let (offsets, listed) = &self.sparse_children;
+            let listed = (sparse == self.p.sparse_parents as usize && !offsets.is_empty()).then_some((offsets, listed));
             for (j, &m) in range.zip(&marks) {
-                let children = match m {
-                    1 => self.h.children_of(j),
-                    2 => &sparse_children[offsets[j] as usize..offsets[j + 1] as usize],
+                let children = match (m, listed) {
+                    (1, _) => self.h.children_of(j),
+                    (2, Some((offsets, listed))) => &listed[offsets[j] as usize..offsets[j + 1] as usize],
+                    (2, None) => {
+                        for &c in self.h.children_of(j) {
+                            if self.h.parents_of(c as usize).len() <= sparse {
+                                flags[c as usize] = true;
+                            }
+                        }
+                        continue;
+                    }
                     _ => continue,
                 };
                 for &c in children {
