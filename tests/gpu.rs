@@ -277,33 +277,29 @@ fn kernels_of_the_refinement_match_cpu() {
         // The activations compared include sparse children of lit nodes (sparse_parents):
         // without them level 2 gets fewer integrals.
         if !variant.is_delta() {
-            let mut p0 = p.clone();
-            p0.sparse_parents = 0;
-            let mut c0 = CpuBackend::new(&s, &h, &p0, &Progress::hidden());
-            c0.direct().unwrap();
-            c0.init_unshot().unwrap();
-            c0.gather(0, p0.exact_first_bounce).unwrap();
-            c0.refine(0, false, 0).unwrap();
-            c0.gather(1, p0.exact_first_bounce).unwrap();
-            let r0 = c0.refine(1, true, 0).unwrap();
+            // Level 2's activations on the CPU, for a backend made with bound `own` and
+            // refined with bound `k`.
+            let activations = |own: u32, k: u32| {
+                let mut q = p.clone();
+                q.sparse_parents = own;
+                let mut c = CpuBackend::new(&s, &h, &q, &Progress::hidden());
+                c.direct().unwrap();
+                c.init_unshot().unwrap();
+                c.gather(0, q.exact_first_bounce).unwrap();
+                c.refine(0, false, k).unwrap();
+                c.gather(1, q.exact_first_bounce).unwrap();
+                c.refine(1, true, k).unwrap().activated
+            };
+            let none = activations(0, 0);
             assert!(
-                r0.activated < activated,
-                "{variant:?}: sparse_parents activated nothing ({} against {activated}): the test does not exercise it",
-                r0.activated
+                none < activated,
+                "{variant:?}: sparse_parents activated nothing ({none} against {activated}): the test does not exercise it"
             );
             // A backend whose own bound differs from the one `refine` is given counts the
             // parents itself (its listed sparse children are for its own bound).
-            let mut p2 = p.clone();
-            p2.sparse_parents = 1;
-            let mut c2 = CpuBackend::new(&s, &h, &p2, &Progress::hidden());
-            c2.direct().unwrap();
-            c2.init_unshot().unwrap();
-            c2.gather(0, p2.exact_first_bounce).unwrap();
-            c2.refine(0, false, p.sparse_parents).unwrap();
-            c2.gather(1, p2.exact_first_bounce).unwrap();
-            let r2 = c2.refine(1, true, p.sparse_parents).unwrap();
             assert_eq!(
-                r2.activated, activated,
+                activations(1, p.sparse_parents),
+                activated,
                 "{variant:?}: activations with another backend bound"
             );
         }
