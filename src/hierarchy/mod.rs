@@ -92,10 +92,15 @@ pub fn node_clip_traced(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip 
 /// one; beyond, they are traced through the BVH.
 const NEAR_CAP: usize = 32;
 
-/// The half-width of the cube about a clip ray origin that holds the rays (1.1 `h`), with
+/// The half-width of the cube about `origin` that holds rays of length `len` from it, with
 /// a margin for rounding.
+fn ray_cube(origin: Vec3, len: f32) -> f32 {
+    len * 1.01 + 1e-5 * origin.abs().max_element()
+}
+
+/// [`ray_cube`] of a node's clip rays (length 1.1 `h`).
 fn clip_reach(origin: Vec3, h: f32) -> f32 {
-    1.1 * h * 1.01 + 1e-5 * origin.abs().max_element()
+    ray_cube(origin, 1.1 * h)
 }
 
 /// Where node `nd`'s clip rays start (world space) and its world normal and support.
@@ -310,7 +315,7 @@ pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32
     let n = xform_vector(&obj.to_world, c.normal).normalize();
     let origin = scene.offset(x, n);
     let below = 0.5 * (origin - x).dot(n);
-    let reach = d_min * 1.01 + 1e-5 * origin.abs().max_element();
+    let reach = ray_cube(origin, d_min);
     let above = |oi: usize, tri: &crate::layout::Tri| {
         let m = &scene.objects[oi].to_world;
         [tri.v0, tri.v1, tri.v2]
@@ -369,7 +374,7 @@ pub fn in_crevice_within(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32,
     let origin = crate::geom::ray::offset_origin(c.pos, c.normal, diag);
     let below = 0.5 * (origin - c.pos).dot(c.normal);
     if below > 0.0 {
-        let reach = d_min_obj * 1.01 + 1e-5 * origin.abs().max_element();
+        let reach = ray_cube(origin, d_min_obj);
         let may_hit = crate::geom::bvh::any_in_box(
             &scene.bvh,
             &scene.tris,

@@ -121,6 +121,15 @@ pub struct Surface {
     pub albedo: Vec3,
 }
 
+/// The object-space cube `[lo, hi]` of object `o` that the world-space cube of half-width
+/// `r` about `c` becomes for the box queries ([`Scene::any_triangle_near`],
+/// [`Scene::triangles_near`]); `None` where the transform makes its extent not finite.
+fn object_cube(o: &SceneObject, c: Vec3, r: f32) -> Option<(Vec3, Vec3)> {
+    let co = xform_point(&o.to_object, c);
+    let ro = xform_vector(&o.to_object, Vec3::new(r, 0.0, 0.0)).length();
+    ro.is_finite().then(|| (co - ro, co + ro))
+}
+
 impl Scene {
     /// Whether the side `n` of the surface point `p` can receive light: it is lit directly,
     /// or one of 64 cosine-distributed rays from it reaches a reflecting surface that is (so
@@ -435,12 +444,10 @@ impl Scene {
     /// rays from `c` no longer than `r` can reach, without tracing them.
     pub fn any_triangle_near(&self, c: Vec3, r: f32, mut f: impl FnMut(usize, &Tri) -> bool) -> bool {
         self.objects.iter().enumerate().any(|(i, o)| {
-            let co = xform_point(&o.to_object, c);
-            let ro = xform_vector(&o.to_object, Vec3::new(r, 0.0, 0.0)).length();
-            if !ro.is_finite() {
+            let Some((lo, hi)) = object_cube(o, c, r) else {
                 return true;
-            }
-            bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, co - ro, co + ro, |_, t| f(i, t))
+            };
+            bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, lo, hi, |_, t| f(i, t))
         })
     }
 
@@ -451,12 +458,10 @@ impl Scene {
     pub fn triangles_near(&self, c: Vec3, r: f32, cap: usize, out: &mut Vec<(u32, u32)>) -> bool {
         out.clear();
         for (i, o) in self.objects.iter().enumerate() {
-            let co = xform_point(&o.to_object, c);
-            let ro = xform_vector(&o.to_object, Vec3::new(r, 0.0, 0.0)).length();
-            if !ro.is_finite() {
+            let Some((lo, hi)) = object_cube(o, c, r) else {
                 return false;
-            }
-            let over = bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, co - ro, co + ro, |t, _| {
+            };
+            let over = bvh::any_in_box(&self.bvh, &self.tris, o.bvh_root, lo, hi, |t, _| {
                 out.push((i as u32, t));
                 out.len() > cap
             });
