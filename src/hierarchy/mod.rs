@@ -44,11 +44,16 @@ use weight::{clip_ok, node_weight};
 /// walk, are what the 8 rays are tested against ([`Scene::intersect_among`]): one BVH
 /// walk per node, not one per ray.
 pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
+    node_clip_in(scene, h, i, &mut Vec::with_capacity(NEAR_CAP + 1))
+}
+
+/// [`node_clip`] with `near` as scratch for the gathered triangles (one per thread in
+/// [`cpu_clips`], not one allocation per node).
+fn node_clip_in(scene: &Scene, h: &Hierarchy, i: usize, near: &mut Vec<(u32, u32)>) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
     let (origin, n, h_w) = clip_ray_origin(scene, nd, h_obj);
-    let mut near = Vec::with_capacity(NEAR_CAP + 1);
-    let all = scene.triangles_near(origin, clip_reach(origin, h_w), NEAR_CAP, &mut near);
+    let all = scene.triangles_near(origin, clip_reach(origin, h_w), NEAR_CAP, near);
     let wall = near
         .iter()
         .any(|&(o, t)| world_normal(scene, o as usize, t).dot(n).abs() < 0.5);
@@ -74,7 +79,7 @@ pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
             .map(|v| (xform_point(m, Vec3::from(v)).as_dvec3() - origin.as_dvec3()).dot(n.as_dvec3()));
         s.iter().any(|&x| x >= -margin) && s.iter().any(|&x| x <= margin)
     });
-    let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect_among(&near, ray, tmax));
+    let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect_among(near, ray, tmax));
     widen_to_neighbour_sectors(&mut planes);
     encode_clip(planes)
 }
@@ -195,7 +200,10 @@ pub fn cpu_clips(scene: &Scene, h: &Hierarchy, sel: &ClipSelection) -> Vec<(usiz
     (0..h.nodes.len())
         .into_par_iter()
         .filter(|&i| sel.contains(scene, h, i))
-        .map(|i| (i, node_clip(scene, h, i)))
+        .map_init(
+            || Vec::with_capacity(NEAR_CAP + 1),
+            |near, i| (i, node_clip_in(scene, h, i, near)),
+        )
         .collect()
 }
 
