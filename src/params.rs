@@ -48,6 +48,17 @@ pub enum BvhKind {
     Cwbvh,
 }
 
+/// Where the GPU backend throws the Poisson-disk levels' darts (`ALGORITHM.md` §3.2).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum DartThrowing {
+    /// On the host's cores, as the CPU backend does.
+    Host,
+    /// On the device (kernel `poisson`), the same nodes but for the float rounding of the
+    /// crevice rays.
+    Device,
+}
+
 /// What decides which surface sides get nodes (`ALGORITHM.md` §3, §6).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -166,6 +177,10 @@ pub struct SolverParams {
     pub batch_integrals: u32,
     /// GPU: the BVH layout traversed.
     pub bvh: BvhKind,
+    /// GPU: where the Poisson-disk levels are thrown, `"host"` or `"device"`; unset: on
+    /// the device unless it is a CPU (lavapipe), where the host's native code is faster.
+    /// The CPU backend always throws them on the host.
+    pub dart_throwing: Option<DartThrowing>,
 }
 
 impl Default for SolverParams {
@@ -203,6 +218,7 @@ impl Default for SolverParams {
             support_clip: true,
             batch_integrals: 0,
             bvh: BvhKind::Bvh2,
+            dart_throwing: None,
         }
     }
 }

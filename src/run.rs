@@ -7,8 +7,9 @@ use std::time::Instant;
 use crate::error::Result;
 use crate::gpu::backend::{GpuReport, GpuResident};
 use crate::gpu::{Context, GpuBackend};
-use crate::hierarchy::Hierarchy;
-use crate::params::SolverParams;
+use crate::hierarchy::poisson::Candidate;
+use crate::hierarchy::{CreviceTest, Hierarchy, LevelJob, LevelsElsewhere};
+use crate::params::{DartThrowing, SolverParams};
 use crate::progress::Progress;
 use crate::scene::Scene;
 use crate::transport::{self, cpu::CpuBackend, Solution};
@@ -52,7 +53,9 @@ pub fn solve(scene: &Scene, params: &SolverParams, ctx: Option<Arc<Context>>, pr
 /// The hierarchy of `scene` for solves on the CPU (`ctx = None`: [`Hierarchy::build`])
 /// or on the device of `ctx`: there the scene and the hierarchy's nodes are uploaded and
 /// the support clips computed where the transport runs ([`GpuResident::arrange`]), and
-/// what stays on the device comes back with the hierarchy.
+/// what stays on the device comes back with the hierarchy. The Poisson-disk levels are
+/// thrown on the device too ([`crate::gpu::poisson`]) where `dart_throwing` says so or,
+/// unset, where the device is not a CPU.
 pub fn build_hierarchy(
     scene: &Scene,
     params: &SolverParams,
@@ -62,7 +65,15 @@ pub fn build_hierarchy(
     let Some(ctx) = ctx else {
         return Ok((Hierarchy::build(scene, params, progress)?, None));
     };
-    let mut h = Hierarchy::build_unarranged(scene, params, progress)?;
+    let on_device = match params.dart_throwing {
+        Some(d) => d == DartThrowing::Device,
+        None => ctx.info.device_type != "CPU",
+    };
+    let device = |scene: &Scene, pools: &[Vec<Candidate>], jobs: &[LevelJob], crevice: &CreviceTest| {
+        crate::gpu::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice)
+    };
+    let elsewhere: Option<LevelsElsewhere> = if on_device { Some(&device) } else { None };
+    let mut h = Hierarchy::build_unarranged_with(scene, params, progress, elsewhere)?;
     progress.stage("uploading to the GPU");
     let r = GpuResident::arranged(ctx, scene, &mut h, params, progress)?;
     Ok((h, Some(r)))

@@ -678,3 +678,59 @@ fn emitters_and_sky_solve_as_on_the_cpu() {
     }
     assert_eq!(ctx.validation_errors(), 0);
 }
+
+/// Dart throwing on the device (kernel `poisson`) gives the host's nodes, bit for bit:
+/// the embedded box (`reach = "lights"`: crevice rays through the whole scene, and the
+/// blocks on the floor make crevices) and its parts as objects of their own, the tall
+/// block turned, scaled and moved (`reach = "object"`: crevice rays within each object,
+/// in object space). Both have crevices.
+#[test]
+fn device_dart_throwing_gives_the_host_nodes() {
+    let ctx = context();
+    let dir = common::tmpdir();
+    let root = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let mesh = root.join("cornell_original_mm.obj");
+    let parts = std::fs::read_to_string(root.join("cornell_parts.toml"))
+        .unwrap()
+        .replace(
+            "\"cornell_original_mm.obj\"",
+            &format!("{:?}", mesh.display().to_string()),
+        )
+        .replace(
+            "group = \"cbox_largebox\"",
+            "group = \"cbox_largebox\"\nrotate = [0.0, 20.0, 0.0]\nscale = 0.8\ntranslate = [40.0, 0.0, 30.0]",
+        );
+    let parts_path = dir.path().join("parts.toml");
+    std::fs::write(&parts_path, parts).unwrap();
+    let small = [("levels", "5"), ("sender_level", "4")];
+    let scenes = [
+        ("box", cornell(5, 64, Variant::Approx)),
+        ("parts", common::load(&parts_path, &small)),
+    ];
+    let hidden = Progress::hidden();
+    for (name, (scene, p)) in scenes {
+        let host = Hierarchy::build_unarranged(&scene, &p, &hidden).unwrap();
+        let mut pd = p.clone();
+        pd.dart_throwing = Some(meshrad::params::DartThrowing::Device);
+        let (dev, _) = meshrad::run::build_hierarchy(&scene, &pd, Some(&ctx), &hidden).unwrap();
+        assert_eq!(host.stats.poisson_on, "host");
+        assert_eq!(dev.stats.poisson_on, "device", "{name}");
+        assert_eq!(dev.stats.nodes_per_level, host.stats.nodes_per_level, "{name}");
+        let differ = host
+            .nodes
+            .iter()
+            .zip(&dev.nodes)
+            .filter(|(a, b)| bytemuck::bytes_of(*a) != bytemuck::bytes_of(*b))
+            .count();
+        assert_eq!(differ, 0, "{name}: nodes differ");
+        assert!(
+            dev.stats.crevice_candidates_dropped > 0,
+            "{name}: the crevices are found on the device"
+        );
+        eprintln!(
+            "{name}: {:?} nodes, crevice drops host {} device {}",
+            dev.stats.nodes_per_level, host.stats.crevice_candidates_dropped, dev.stats.crevice_candidates_dropped
+        );
+    }
+    assert_eq!(ctx.validation_errors(), 0);
+}

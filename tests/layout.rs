@@ -12,7 +12,8 @@ use std::process::Command;
 use meshrad::gpu::globals::Globals;
 use meshrad::gpu::kernels::{
     accumulate::AccumulatePush, batches::BatchesPush, clips::ClipsPush, compact::CompactPush, delta::DeltaPush,
-    direct::DirectPush, energy::EnergyPush, gather::GatherPush, oracle::OraclePush, pulldown::PulldownPush,
+    direct::DirectPush, energy::EnergyPush, gather::GatherPush, oracle::OraclePush, poisson::PoissonPush,
+    pulldown::PulldownPush,
 };
 use meshrad::layout::*;
 
@@ -257,6 +258,30 @@ fn gpu_struct_offsets_match_the_host_structs() {
         count,
         boxes,
         eps,
+        pad0
+    );
+    check("PoissonPush", "g", offset_of!(PoissonPush, globals));
+    same!(
+        PoissonPush,
+        "PoissonPush",
+        cands,
+        state,
+        memo,
+        table,
+        fill,
+        sorted,
+        counters,
+        count,
+        mask,
+        r,
+        r2,
+        inv_cell,
+        d_min,
+        diag,
+        object,
+        within,
+        stage,
+        round,
         pad0
     );
     check("GatherPush", "g", offset_of!(GatherPush, globals));

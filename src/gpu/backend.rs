@@ -119,7 +119,7 @@ pub struct GpuResident {
 }
 
 /// The specialization constants of a solve.
-fn specialization(p: &SolverParams, scene: &Scene) -> Specialization {
+pub(crate) fn specialization(p: &SolverParams, scene: &Scene) -> Specialization {
     Specialization {
         variant: match p.variant {
             Variant::Original => VARIANT_ORIGINAL,

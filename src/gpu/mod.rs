@@ -10,6 +10,7 @@ pub mod context;
 pub mod globals;
 pub mod kernels;
 pub mod pipeline;
+pub mod poisson;
 pub mod profiler;
 pub mod resources;
 pub mod schedule;
@@ -31,7 +32,7 @@ pub mod shaders {
 pub(crate) fn vk_err(call: &str, r: vk::Result) -> Error {
     let hint = match r {
         vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY => {
-            " (out of memory: try a smaller scene, fewer levels or `--set batch_integrals=...`)"
+            " (out of memory: try a smaller scene, fewer levels, `--set batch_integrals=...` or `--set dart_throwing=host`)"
         }
         vk::Result::ERROR_DEVICE_LOST => " (device lost)",
         _ => "",

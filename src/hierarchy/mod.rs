@@ -474,9 +474,13 @@ pub struct HierarchyStats {
     pub orphans_per_level: Vec<u32>,
     pub reachable_area: f64,
     /// Candidates found in a crevice (a gap narrower than the finest level's radius, e.g.
-    /// under an object resting on the floor), of those tested: the crevice test runs on
-    /// the candidates that no node of an earlier chunk of the dart throwing covers.
+    /// under an object resting on the floor), of those tested: on the host the crevice
+    /// test runs on the candidates that no node of an earlier chunk of the dart throwing
+    /// covers, on the device on those whose earlier neighbours were all left out.
     pub crevice_candidates_dropped: usize,
+    /// Where the Poisson-disk levels were thrown: `"host"` or `"device"`
+    /// (`dart_throwing`).
+    pub poisson_on: &'static str,
     pub reachable_sides: usize,
     pub seconds_reach: f64,
     pub seconds_candidates: f64,
@@ -620,65 +624,113 @@ fn candidate_pools(scene: &Scene, p: &SolverParams, sides: &[bool], d: &Density)
         .collect()
 }
 
-/// The Poisson-disk set of every (object, level), object-major, independent and in
-/// parallel; candidates in crevices are dropped (the test memoised per candidate).
+/// One Poisson-disk level of one object: dart throwing over the first `take` candidates of
+/// the object's pool with radius `radius` (object space).
+#[derive(Clone, Copy, Debug)]
+pub struct LevelJob {
+    pub object: usize,
+    pub level: usize,
+    pub take: usize,
+    pub radius: f32,
+}
+
+/// The crevice test as dart throwing asks it of object `o`'s candidates
+/// ([`in_crevice`], or [`in_crevice_within`] with `within`).
+#[derive(Clone, Debug)]
+pub struct CreviceTest {
+    /// The gap width, world units (0: no test).
+    pub d_min: f32,
+    /// `reach = "object"`: the test within each object, in object space.
+    pub within: bool,
+    /// Per object, with `within`: its diagonal (the ray offset's scale).
+    pub diags: Vec<f32>,
+}
+
+impl CreviceTest {
+    /// The gap width in object `o`'s units with `within` (world units without).
+    pub fn d_min_in(&self, scene: &Scene, o: usize) -> f32 {
+        if self.within {
+            self.d_min / scene.objects[o].transform.scale
+        } else {
+            self.d_min
+        }
+    }
+}
+
+/// Dart throwing somewhere other than on the host (the GPU backend's device): every job's
+/// accepted candidates, in pool order, exactly those of [`poisson::dart_throw`] with the
+/// crevice test `usable` (but for the float rounding of the crevice rays), and the count
+/// of candidates found in a crevice.
+pub type LevelsElsewhere<'a> =
+    &'a dyn Fn(&Scene, &[Vec<Candidate>], &[LevelJob], &CreviceTest) -> Result<(Vec<Vec<Candidate>>, usize)>;
+
+/// Every (object, level), object-major, and the crevice test.
+fn level_jobs(scene: &Scene, p: &SolverParams, d: &Density, pools: &[Vec<Candidate>]) -> (Vec<LevelJob>, CreviceTest) {
+    let m = p.levels as usize;
+    let jobs = (0..scene.objects.len())
+        .flat_map(|o| (0..m).map(move |l| (o, l)))
+        .map(|(o, l)| LevelJob {
+            object: o,
+            level: l,
+            take: d.take(p, o, l, pools[o].len()),
+            radius: (d.radius[l] / scene.objects[o].transform.scale as f64) as f32,
+        })
+        .collect();
+    let within = p.reach() == Reach::Object;
+    let crevice = CreviceTest {
+        d_min: (p.crevice_distance as f64 * d.radius[m - 1]) as f32,
+        within,
+        diags: (0..scene.objects.len())
+            .map(|o| if within { object_diagonal(scene, o) } else { 0.0 })
+            .collect(),
+    };
+    (jobs, crevice)
+}
+
+/// The Poisson-disk set of every job, independent and in parallel; candidates in crevices
+/// are dropped (the test memoised per candidate). Returns the sets and the count of
+/// candidates found in a crevice.
 fn poisson_levels(
     scene: &Scene,
-    p: &SolverParams,
-    d: &Density,
     pools: &[Vec<Candidate>],
-    stats: &mut HierarchyStats,
-) -> Vec<Vec<Candidate>> {
-    let m = p.levels as usize;
-    let jobs: Vec<(usize, usize)> = (0..scene.objects.len())
-        .flat_map(|o| (0..m).map(move |l| (o, l)))
-        .collect();
+    jobs: &[LevelJob],
+    crevice: &CreviceTest,
+) -> (Vec<Vec<Candidate>>, usize) {
     // Crevice test, memoised per candidate across levels: 0 unknown, 1 open, 2 crevice.
     let memo: Vec<Vec<AtomicU8>> = pools
         .iter()
         .map(|p| (0..p.len()).map(|_| AtomicU8::new(0)).collect())
         .collect();
-    let d_min = (p.crevice_distance as f64 * d.radius[m - 1]) as f32;
-    let within = p.reach() == Reach::Object;
-    let diags: Vec<f32> = (0..scene.objects.len())
-        .map(|o| if within { object_diagonal(scene, o) } else { 0.0 })
-        .collect();
     let sets: Vec<Vec<Candidate>> = jobs
         .par_iter()
-        .map(|&(o, l)| {
+        .map(|job| {
+            let o = job.object;
             let pool = &pools[o];
-            let n = d.take(p, o, l, pool.len());
-            let r = d.radius[l] / scene.objects[o].transform.scale as f64;
             let usable = |i: usize| {
-                if d_min <= 0.0 {
+                if crevice.d_min <= 0.0 {
                     return true;
                 }
                 let state = memo[o][i].load(Ordering::Relaxed);
                 if state != 0 {
                     return state == 1;
                 }
-                let open = if within {
-                    let d_obj = d_min / scene.objects[o].transform.scale;
-                    !in_crevice_within(scene, o, &pool[i], d_obj, i as u32, diags[o])
+                let d = crevice.d_min_in(scene, o);
+                let open = if crevice.within {
+                    !in_crevice_within(scene, o, &pool[i], d, i as u32, crevice.diags[o])
                 } else {
-                    !in_crevice(scene, o, &pool[i], d_min, i as u32)
+                    !in_crevice(scene, o, &pool[i], d, i as u32)
                 };
                 memo[o][i].store(if open { 1 } else { 2 }, Ordering::Relaxed);
                 open
             };
-            poisson::dart_throw(&pool[..n], r as f32, usable)
+            poisson::dart_throw(&pool[..job.take], job.radius, usable)
         })
         .collect();
-    stats.crevice_candidates_dropped = memo
+    let dropped = memo
         .iter()
         .map(|m| m.iter().filter(|s| s.load(Ordering::Relaxed) == 2).count())
         .sum();
-    let mut pool_sizes = vec![0u64; m];
-    for &(o, l) in &jobs {
-        pool_sizes[l] += d.take(p, o, l, pools[o].len()) as u64;
-    }
-    stats.candidates_per_level = pool_sizes;
-    sets
+    (sets, dropped)
 }
 
 /// The node array, level-major then object, with each level's start and each object's
@@ -762,7 +814,21 @@ impl Hierarchy {
     /// [`Hierarchy::build`] up to what depends on the arrangement: no clips and no
     /// relations yet ([`Hierarchy::arrange`] adds them, or the device: `crate::gpu::arrange`).
     pub fn build_unarranged(scene: &Scene, p: &SolverParams, progress: &Progress) -> Result<Hierarchy> {
-        let mut stats = HierarchyStats::default();
+        Hierarchy::build_unarranged_with(scene, p, progress, None)
+    }
+
+    /// [`Hierarchy::build_unarranged`] with the Poisson-disk levels thrown by `elsewhere`
+    /// (the device) if given.
+    pub fn build_unarranged_with(
+        scene: &Scene,
+        p: &SolverParams,
+        progress: &Progress,
+        elsewhere: Option<LevelsElsewhere>,
+    ) -> Result<Hierarchy> {
+        let mut stats = HierarchyStats {
+            poisson_on: "host",
+            ..Default::default()
+        };
         let t = Instant::now();
         progress.stage("reachable surfaces");
         let (sides, object_reach) = match p.reach() {
@@ -789,7 +855,18 @@ impl Hierarchy {
 
         let t = Instant::now();
         progress.stage("Poisson-disk levels");
-        let sets = poisson_levels(scene, p, &density, &pools, &mut stats);
+        let (jobs, crevice) = level_jobs(scene, p, &density, &pools);
+        let (sets, dropped) = match elsewhere {
+            Some(f) => {
+                stats.poisson_on = "device";
+                f(scene, &pools, &jobs, &crevice)?
+            }
+            None => poisson_levels(scene, &pools, &jobs, &crevice),
+        };
+        stats.crevice_candidates_dropped = dropped;
+        stats.candidates_per_level = (0..p.levels as usize)
+            .map(|l| jobs.iter().filter(|j| j.level == l).map(|j| j.take as u64).sum())
+            .collect();
         stats.seconds_poisson = t.elapsed().as_secs_f64();
         drop(pools);
 

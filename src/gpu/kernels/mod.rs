@@ -14,6 +14,7 @@ pub mod energy;
 pub mod gather;
 pub mod hemisphere;
 pub mod oracle;
+pub mod poisson;
 pub mod pulldown;
 pub mod reconstruct;
 pub mod reduce;
@@ -211,6 +212,7 @@ pub const NAMES: &[&str] = &[
     energy::Energy::NAME,
     hemisphere::Hemisphere::NAME,
     oracle::Oracle::NAME,
+    poisson::Poisson::NAME,
     pulldown::Pulldown::NAME,
     reconstruct::Reconstruct::NAME,
     reduce::Reduce::NAME,

@@ -1,0 +1,187 @@
+//! The Poisson-disk levels thrown on the device (`ALGORITHM.md` §3.2): the GPU backend's
+//! twin of the host's dart throwing, [`crate::hierarchy::LevelsElsewhere`] for
+//! [`crate::hierarchy::Hierarchy::build_unarranged_with`]. The result is the host's node
+//! set: the same candidates, the same distance and side test in the same float
+//! arithmetic, the same order; only a crevice ray that the device's rounding turns from a
+//! hit into a miss (or back) can change a node.
+//!
+//! Data flow: up go the scene's triangles, BVHs and object transforms (a `Globals` block
+//! naming only those) and each object's candidate pool, once (24 bytes per candidate of
+//! its largest level); per (object, level) the device builds a hashed grid of the
+//! candidates and runs rounds of decisions, 4 per submission, with one word read back
+//! between submissions (the candidates still undecided); then the level's states come
+//! back (4 bytes per candidate) and the host keeps the accepted candidates, in order. The
+//! crevice tests are memoised on the device across an object's levels.
+
+use std::sync::Arc;
+
+use gpu_allocator::MemoryLocation;
+
+use super::buffer::Buffer;
+use super::context::Context;
+use super::globals::Globals;
+use super::kernels::poisson::{Poisson, PoissonPush, COUNT, IN, RESOLVE, SCATTER};
+use super::kernels::scan::Scan;
+use super::kernels::submit;
+use super::profiler::Profiler;
+use super::resources::Cwbvh;
+use crate::error::{Error, Result};
+use crate::hierarchy::poisson::Candidate;
+use crate::hierarchy::{CreviceTest, LevelJob};
+use crate::layout::ObjectInfo;
+use crate::params::SolverParams;
+use crate::scene::Scene;
+
+/// Rounds of decisions per submission (then one word is read back).
+const ROUNDS: usize = 4;
+
+/// Every job's accepted candidates, in pool order, and the count of candidates found in
+/// a crevice; see the module's documentation.
+pub fn levels_on_device(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    p: &SolverParams,
+    pools: &[Vec<Candidate>],
+    jobs: &[LevelJob],
+    crevice: &CreviceTest,
+) -> Result<(Vec<Vec<Candidate>>, usize)> {
+    let spec = super::backend::specialization(p, scene);
+    let kernel = Poisson::new(ctx, spec)?;
+    let scan = Scan::new(ctx, spec)?;
+    let mut prof = Profiler::new(ctx)?;
+
+    // What the crevice rays read: triangles, BVHs, transforms.
+    let cw = Cwbvh::build(scene, p);
+    let objects: Vec<ObjectInfo> = scene
+        .objects
+        .iter()
+        .zip(&cw.roots)
+        .map(|(o, &root)| ObjectInfo {
+            to_object: o.to_object,
+            to_world: o.to_world,
+            scale: o.transform.scale,
+            tri_offset: o.tri_offset,
+            tri_count: o.tri_count,
+            bvh_offset: o.bvh_root,
+            cw_root: root,
+            ..Default::default()
+        })
+        .collect();
+    let tris = Buffer::upload(ctx, "triangles", &scene.tris[..])?;
+    let bvh = Buffer::upload(ctx, "bvh", &scene.bvh[..])?;
+    let cw_nodes = Buffer::upload(ctx, "cwbvh nodes", &cw.nodes[..])?;
+    let cw_prims = Buffer::upload(ctx, "cwbvh primitives", &cw.prims[..])?;
+    let object_buf = Buffer::upload(ctx, "objects", &objects[..])?;
+    let g = Globals {
+        tris: tris.address,
+        bvh: bvh.address,
+        cw_nodes: cw_nodes.address,
+        cw_prims: cw_prims.address,
+        objects: object_buf.address,
+        num_objects: scene.objects.len() as u32,
+        scene_scale: scene.scale,
+        ..Default::default()
+    };
+    let globals = Buffer::upload(ctx, "globals (dart throwing)", bytemuck::bytes_of(&g))?;
+
+    // Scratch for the largest level, reused by every job.
+    let most = jobs.iter().map(|j| j.take).max().unwrap_or(0).max(1);
+    let buckets = most.next_power_of_two();
+    let words = |name: &str, n: usize| Buffer::zeroed(ctx, name, 4 * n.max(1) as u64);
+    let state = words("dart states", most)?;
+    let table = words("dart buckets", buckets + 1)?;
+    let fill = words("dart bucket fill", buckets)?;
+    let sorted = Buffer::new(ctx, "darts by bucket", 32 * most as u64, MemoryLocation::GpuOnly)?;
+    let counters = words("dart counters", 1 + ROUNDS)?;
+    let sums = words("dart scan sums", Scan::blocks(buckets as u64 + 1) as usize)?;
+
+    let mut sets = vec![Vec::new(); jobs.len()];
+    for (o, pool) in pools.iter().enumerate() {
+        let mine: Vec<usize> = (0..jobs.len())
+            .filter(|&k| jobs[k].object == o && jobs[k].take > 0)
+            .collect();
+        let Some(largest) = mine.iter().map(|&k| jobs[k].take).max() else {
+            continue;
+        };
+        let flat: Vec<[f32; 6]> = pool[..largest]
+            .iter()
+            .map(|c| [c.pos.x, c.pos.y, c.pos.z, c.normal.x, c.normal.y, c.normal.z])
+            .collect();
+        let cands = Buffer::upload(ctx, "dart candidates", &flat[..])?;
+        drop(flat);
+        let memo = words("crevice tests", largest)?;
+        for k in mine {
+            let job = &jobs[k];
+            let n = job.take;
+            let bk = n.next_power_of_two();
+            let r = job.radius;
+            let push = PoissonPush {
+                cands: cands.address,
+                state: state.address,
+                memo: memo.address,
+                table: table.address,
+                fill: fill.address,
+                sorted: sorted.address,
+                counters: counters.address,
+                count: n as u32,
+                mask: bk as u32 - 1,
+                r,
+                r2: r * r,
+                inv_cell: 0.5 / r,
+                d_min: crevice.d_min_in(scene, o),
+                diag: crevice.diags[o],
+                object: o as u32,
+                within: crevice.within as u32,
+                ..Default::default()
+            };
+            let rounds = |rec: &mut super::kernels::Recorder| {
+                rec.fill(&counters, 4, 4 * ROUNDS as u64, 0);
+                rec.barrier();
+                for round in 0..ROUNDS {
+                    kernel.record(
+                        rec,
+                        &PoissonPush {
+                            round: round as u32,
+                            ..push
+                        },
+                        RESOLVE,
+                    );
+                    rec.barrier();
+                }
+            };
+            submit(ctx, &mut prof, globals.address, |rec| {
+                rec.fill(&state, 0, 4 * n as u64, 0);
+                rec.fill(&table, 0, 4 * (bk as u64 + 1), 0);
+                rec.fill(&fill, 0, 4 * bk as u64, 0);
+                rec.barrier();
+                kernel.record(rec, &push, COUNT);
+                rec.barrier();
+                scan.record(rec, table.address, sums.address, bk as u32 + 1);
+                kernel.record(rec, &push, SCATTER);
+                rec.barrier();
+                rounds(rec);
+            })?;
+            // Each round decides at least the first undecided candidate.
+            let mut done = ROUNDS;
+            while counters.download::<u32>(ROUNDS, 1)?[0] > 0 {
+                if done > n + ROUNDS {
+                    return Err(Error::Gpu(format!(
+                        "dart throwing on the device: object {o} level {} still undecided after {done} rounds",
+                        job.level
+                    )));
+                }
+                submit(ctx, &mut prof, globals.address, rounds)?;
+                done += ROUNDS;
+            }
+            let states: Vec<u32> = state.download(0, n)?;
+            sets[k] = states
+                .iter()
+                .zip(pool)
+                .filter(|(&s, _)| s == IN)
+                .map(|(_, c)| *c)
+                .collect();
+        }
+    }
+    let dropped = counters.download::<u32>(0, 1)?[0] as usize;
+    Ok((sets, dropped))
+}
