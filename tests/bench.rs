@@ -39,6 +39,7 @@ fn table2_smoke() {
         "Mrays/s",
         "rel. RMS error vs reference",
         "end to end, cold (load to written images)",
+        "its hierarchy (darts thrown on)",
         "links memory",
         "Preprocessing",
     ] {
@@ -63,6 +64,12 @@ fn table2_smoke() {
             c["measured"]["seconds"].as_f64().unwrap(),
         );
         assert!(e2e > solve, "end to end {e2e} s, solve {solve} s");
+        let h = c["seconds_hierarchy_end_to_end"].as_f64().unwrap();
+        assert!(h > 0.0 && h < e2e, "hierarchy {h} s of {e2e} s");
+        // Unset, `dart_throwing` keeps the darts on the host for the CPU column and on a
+        // CPU device (lavapipe), and throws them on any other device.
+        let on_device = c["name"].as_str().unwrap().starts_with("GPU") && !text.contains("llvmpipe");
+        assert_eq!(c["dart_throwing"], if on_device { "device" } else { "host" }, "{c}");
     }
     // Links only where the variant keeps them (approx), and the images of the cold runs.
     let links: Vec<bool> = cols.iter().map(|c| !c["measured"]["links_bytes"].is_null()).collect();

@@ -85,6 +85,22 @@ pub struct Column {
     /// A cold run of the column as `meshrad solve` makes it, wall clock from loading the
     /// scene to its images written ([`end_to_end`]).
     pub seconds_end_to_end: f64,
+    /// The hierarchy's part of it (on a GPU column arranged on the device, with its
+    /// dart throwing where `dart_throwing` puts it).
+    pub seconds_hierarchy_end_to_end: f64,
+    /// Where that run threw the Poisson-disk levels' darts: `"host"` or `"device"`.
+    pub dart_throwing: String,
+}
+
+/// What a cold run ([`end_to_end`]) took.
+#[derive(Clone, Debug)]
+pub struct Cold {
+    /// Load to written images.
+    pub seconds: f64,
+    /// The hierarchy within it.
+    pub seconds_hierarchy: f64,
+    /// Where its darts were thrown (`HierarchyStats::poisson_on`).
+    pub dart_throwing: &'static str,
 }
 
 /// One column run as `meshrad solve` runs it, cold: the scene loaded (with its BVH), the
@@ -96,7 +112,7 @@ pub fn end_to_end(
     variant: Variant,
     ctx: Option<Arc<Context>>,
     dir: &Path,
-) -> Result<f64> {
+) -> Result<Cold> {
     let hidden = Progress::hidden();
     let t = Instant::now();
     let (scene, mut params) = load(spec, &opts.scene_dir, opts.smoke)?;
@@ -106,7 +122,11 @@ pub fn end_to_end(
     let mut files = output::Outputs::default();
     image::encode_all(dir, &img, &mut files)?;
     files.commit()?;
-    Ok(t.elapsed().as_secs_f64())
+    Ok(Cold {
+        seconds: t.elapsed().as_secs_f64(),
+        seconds_hierarchy: run.seconds_hierarchy,
+        dart_throwing: run.hierarchy.stats.poisson_on,
+    })
 }
 
 /// One scene's table.
@@ -226,7 +246,7 @@ pub fn run_scene(
     output::ensure_dir(&images)?;
     for (name, ctx, variant) in plan {
         progress.stage(&format!("{}: {name}, end to end", spec.name));
-        let seconds_end_to_end = end_to_end(spec, opts, variant, ctx.clone(), &images)?;
+        let cold = end_to_end(spec, opts, variant, ctx.clone(), &images)?;
         progress.stage(&format!("{}: {name}", spec.name));
         params.variant = variant;
         let warm = ctx.is_some();
@@ -236,7 +256,9 @@ pub fn run_scene(
             name: name.into(),
             measured: m,
             error,
-            seconds_end_to_end,
+            seconds_end_to_end: cold.seconds,
+            seconds_hierarchy_end_to_end: cold.seconds_hierarchy,
+            dart_throwing: cold.dart_throwing.into(),
         });
     }
     Ok(SceneTable {
@@ -337,6 +359,9 @@ pub fn markdown(tables: &[SceneTable]) -> String {
         });
         row(&mut s, "end to end, cold (load to written images)", &|c| {
             secs(c.seconds_end_to_end)
+        });
+        row(&mut s, "its hierarchy (darts thrown on)", &|c| {
+            format!("{} ({})", secs(c.seconds_hierarchy_end_to_end), c.dart_throwing)
         });
         row(&mut s, "links memory", &|c| {
             c.measured
