@@ -178,8 +178,9 @@ pub struct SolverParams {
     /// GPU: the BVH layout traversed.
     pub bvh: BvhKind,
     /// GPU: where the Poisson-disk levels are thrown, `"host"` or `"device"`; unset: on
-    /// the device unless it is a CPU (lavapipe), where the host's native code is faster.
-    /// The CPU backend always throws them on the host.
+    /// the device unless it is a CPU (lavapipe), where the host's native code is faster,
+    /// or the largest level's candidates would take more than half its memory (64 bytes
+    /// each). The CPU backend always throws them on the host.
     pub dart_throwing: Option<DartThrowing>,
 }
 

@@ -55,7 +55,7 @@ pub fn solve(scene: &Scene, params: &SolverParams, ctx: Option<Arc<Context>>, pr
 /// the support clips computed where the transport runs ([`GpuResident::arrange`]), and
 /// what stays on the device comes back with the hierarchy. The Poisson-disk levels are
 /// thrown on the device too ([`crate::gpu::poisson`]) where `dart_throwing` says so or,
-/// unset, where the device is not a CPU.
+/// unset, where the device is not a CPU and has room for them.
 pub fn build_hierarchy(
     scene: &Scene,
     params: &SolverParams,
@@ -69,8 +69,12 @@ pub fn build_hierarchy(
         Some(d) => d == DartThrowing::Device,
         None => ctx.info.device_type != "CPU",
     };
+    // Unset, `dart_throwing` leaves to the host what the device has no room for.
     let device = |scene: &Scene, pools: &[Vec<Candidate>], jobs: &[LevelJob], crevice: &CreviceTest| {
-        crate::gpu::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice)
+        if params.dart_throwing.is_none() && !crate::gpu::poisson::fits(ctx, jobs) {
+            return Ok(None);
+        }
+        crate::gpu::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice).map(Some)
     };
     let elsewhere: Option<LevelsElsewhere> = if on_device { Some(&device) } else { None };
     let mut h = Hierarchy::build_unarranged_with(scene, params, progress, elsewhere)?;

@@ -35,6 +35,24 @@ use crate::scene::Scene;
 /// Rounds of decisions per submission (then one word is read back).
 const ROUNDS: usize = 4;
 
+/// The largest buffer and the device memory in all that [`levels_on_device`] needs for
+/// `jobs` (scene buffers aside): per candidate of the largest level 32 bytes listed by
+/// bucket, 24 of the pool, 4 of state, 4 of crevice tests, and 8 per bucket.
+pub fn device_bytes(jobs: &[LevelJob]) -> (u64, u64) {
+    let most = jobs.iter().map(|j| j.take).max().unwrap_or(0).max(1) as u64;
+    let buckets = most.next_power_of_two();
+    let largest = (32 * most).max(4 * (buckets + 1));
+    (largest, (32 + 24 + 4 + 4) * most + 8 * buckets)
+}
+
+/// Whether the device can hold what [`levels_on_device`] needs for `jobs`, with room to
+/// spare: at most half its memory, each buffer within its largest allocation.
+pub fn fits(ctx: &Context, jobs: &[LevelJob]) -> bool {
+    let (largest, all) = device_bytes(jobs);
+    let max = ctx.info.max_allocation_bytes;
+    all <= ctx.info.device_local_bytes / 2 && (max == 0 || largest <= max)
+}
+
 /// Every job's accepted candidates, in pool order, and the count of candidates found in
 /// a crevice; see the module's documentation.
 pub fn levels_on_device(

@@ -660,9 +660,10 @@ impl CreviceTest {
 /// Dart throwing somewhere other than on the host (the GPU backend's device): every job's
 /// accepted candidates, in pool order, exactly those of [`poisson::dart_throw`] with the
 /// crevice test `usable` (but for the float rounding of the crevice rays), and the count
-/// of candidates found in a crevice.
+/// of candidates found in a crevice; or `None` where it declines the jobs (the host
+/// throws them).
 pub type LevelsElsewhere<'a> =
-    &'a dyn Fn(&Scene, &[Vec<Candidate>], &[LevelJob], &CreviceTest) -> Result<(Vec<Vec<Candidate>>, usize)>;
+    &'a dyn Fn(&Scene, &[Vec<Candidate>], &[LevelJob], &CreviceTest) -> Result<Option<(Vec<Vec<Candidate>>, usize)>>;
 
 /// Every (object, level), object-major, and the crevice test.
 fn level_jobs(scene: &Scene, p: &SolverParams, d: &Density, pools: &[Vec<Candidate>]) -> (Vec<LevelJob>, CreviceTest) {
@@ -856,12 +857,12 @@ impl Hierarchy {
         let t = Instant::now();
         progress.stage("Poisson-disk levels");
         let (jobs, crevice) = level_jobs(scene, p, &density, &pools);
-        let (sets, dropped) = match elsewhere {
-            Some(f) => {
+        let (sets, dropped) = match elsewhere.map(|f| f(scene, &pools, &jobs, &crevice)).transpose()? {
+            Some(Some(done)) => {
                 stats.poisson_on = "device";
-                f(scene, &pools, &jobs, &crevice)?
+                done
             }
-            None => poisson_levels(scene, &pools, &jobs, &crevice),
+            _ => poisson_levels(scene, &pools, &jobs, &crevice),
         };
         stats.crevice_candidates_dropped = dropped;
         stats.candidates_per_level = (0..p.levels as usize)
