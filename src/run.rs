@@ -70,11 +70,11 @@ pub fn build_hierarchy(
         None => ctx.info.device_type != "CPU",
     };
     // Unset, `dart_throwing` leaves to the host what the device has no room for.
-    let device = |scene: &Scene, pools: &[Vec<Candidate>], jobs: &[LevelJob], crevice: &CreviceTest| {
+    let device = |scene: &Scene, pools: &[Vec<Candidate>], jobs: &[LevelJob], crevice: &CreviceTest, pr: &Progress| {
         if params.dart_throwing.is_none() && !crate::gpu::poisson::fits(ctx, jobs) {
             return Ok(None);
         }
-        crate::gpu::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice).map(Some)
+        crate::gpu::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice, pr).map(Some)
     };
     let elsewhere: Option<LevelsElsewhere> = if on_device { Some(&device) } else { None };
     let mut h = Hierarchy::build_unarranged_with(scene, params, progress, elsewhere)?;

@@ -715,6 +715,7 @@ fn device_dart_throwing_gives_the_host_nodes() {
         let (dev, _) = meshrad::run::build_hierarchy(&scene, &pd, Some(&ctx), &hidden).unwrap();
         assert_eq!(host.stats.poisson_on, "host");
         assert_eq!(dev.stats.poisson_on, "device", "{name}");
+        assert!(dev.stats.poisson_rounds > 0 && host.stats.poisson_rounds == 0);
         assert_eq!(dev.stats.nodes_per_level, host.stats.nodes_per_level, "{name}");
         let differ = host
             .nodes
@@ -728,8 +729,11 @@ fn device_dart_throwing_gives_the_host_nodes() {
             "{name}: the crevices are found on the device"
         );
         eprintln!(
-            "{name}: {:?} nodes, crevice drops host {} device {}",
-            dev.stats.nodes_per_level, host.stats.crevice_candidates_dropped, dev.stats.crevice_candidates_dropped
+            "{name}: {:?} nodes, crevice drops host {} device {}, {} rounds",
+            dev.stats.nodes_per_level,
+            host.stats.crevice_candidates_dropped,
+            dev.stats.crevice_candidates_dropped,
+            dev.stats.poisson_rounds
         );
     }
     assert_eq!(ctx.validation_errors(), 0);

@@ -27,9 +27,10 @@ use super::profiler::Profiler;
 use super::resources::Cwbvh;
 use crate::error::{Error, Result};
 use crate::hierarchy::poisson::Candidate;
-use crate::hierarchy::{CreviceTest, LevelJob};
+use crate::hierarchy::{CreviceTest, LevelJob, Thrown};
 use crate::layout::ObjectInfo;
 use crate::params::SolverParams;
+use crate::progress::Progress;
 use crate::scene::Scene;
 
 /// Rounds of decisions per submission (then one word is read back).
@@ -53,8 +54,8 @@ pub fn fits(ctx: &Context, jobs: &[LevelJob]) -> bool {
     all <= ctx.info.device_local_bytes / 2 && (max == 0 || largest <= max)
 }
 
-/// Every job's accepted candidates, in pool order, and the count of candidates found in
-/// a crevice; see the module's documentation.
+/// Every job's accepted candidates, in pool order, the count of candidates found in a
+/// crevice and the rounds taken; see the module's documentation.
 pub fn levels_on_device(
     ctx: &Arc<Context>,
     scene: &Scene,
@@ -62,7 +63,8 @@ pub fn levels_on_device(
     pools: &[Vec<Candidate>],
     jobs: &[LevelJob],
     crevice: &CreviceTest,
-) -> Result<(Vec<Vec<Candidate>>, usize)> {
+    progress: &Progress,
+) -> Result<Thrown> {
     let spec = super::backend::specialization(p, scene);
     let kernel = Poisson::new(ctx, spec)?;
     let scan = Scan::new(ctx, spec)?;
@@ -114,6 +116,11 @@ pub fn levels_on_device(
     let sums = words("dart scan sums", Scan::blocks(buckets as u64 + 1) as usize)?;
 
     let mut sets = vec![Vec::new(); jobs.len()];
+    let mut rounds_taken = 0;
+    let bar = progress.bar(
+        jobs.iter().map(|j| j.take as u64).sum(),
+        "Poisson-disk levels on the device",
+    );
     for (o, pool) in pools.iter().enumerate() {
         let mine: Vec<usize> = (0..jobs.len())
             .filter(|&k| jobs[k].object == o && jobs[k].take > 0)
@@ -191,6 +198,8 @@ pub fn levels_on_device(
                 submit(ctx, &mut prof, globals.address, rounds)?;
                 done += ROUNDS;
             }
+            rounds_taken += done;
+            bar.inc(n as u64);
             let states: Vec<u32> = state.download(0, n)?;
             sets[k] = states
                 .iter()
@@ -200,6 +209,11 @@ pub fn levels_on_device(
                 .collect();
         }
     }
-    let dropped = counters.download::<u32>(0, 1)?[0] as usize;
-    Ok((sets, dropped))
+    bar.finish();
+    let crevices = counters.download::<u32>(0, 1)?[0] as usize;
+    Ok(Thrown {
+        sets,
+        crevices,
+        rounds: rounds_taken,
+    })
 }

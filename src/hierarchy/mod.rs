@@ -481,6 +481,9 @@ pub struct HierarchyStats {
     /// Where the Poisson-disk levels were thrown: `"host"` or `"device"`
     /// (`dart_throwing`).
     pub poisson_on: &'static str,
+    /// On the device: the rounds of decisions over all (object, level) pairs (at least
+    /// one submission of 4 per pair; 0 on the host).
+    pub poisson_rounds: usize,
     pub reachable_sides: usize,
     pub seconds_reach: f64,
     pub seconds_candidates: f64,
@@ -657,13 +660,21 @@ impl CreviceTest {
     }
 }
 
-/// Dart throwing somewhere other than on the host (the GPU backend's device): every job's
-/// accepted candidates, in pool order, exactly those of [`poisson::dart_throw`] with the
-/// crevice test `usable` (but for the float rounding of the crevice rays), and the count
-/// of candidates found in a crevice; or `None` where it declines the jobs (the host
+/// What dart throwing elsewhere gave: every job's accepted candidates, in pool order,
+/// exactly those of [`poisson::dart_throw`] with the crevice test `usable` (but for the
+/// float rounding of the crevice rays), the count of candidates found in a crevice, and
+/// the rounds of decisions it took over all jobs.
+pub struct Thrown {
+    pub sets: Vec<Vec<Candidate>>,
+    pub crevices: usize,
+    pub rounds: usize,
+}
+
+/// Dart throwing somewhere other than on the host (the GPU backend's device), with a
+/// progress bar over the jobs' candidates; `None` where it declines the jobs (the host
 /// throws them).
 pub type LevelsElsewhere<'a> =
-    &'a dyn Fn(&Scene, &[Vec<Candidate>], &[LevelJob], &CreviceTest) -> Result<Option<(Vec<Vec<Candidate>>, usize)>>;
+    &'a dyn Fn(&Scene, &[Vec<Candidate>], &[LevelJob], &CreviceTest, &Progress) -> Result<Option<Thrown>>;
 
 /// Every (object, level), object-major, and the crevice test.
 fn level_jobs(scene: &Scene, p: &SolverParams, d: &Density, pools: &[Vec<Candidate>]) -> (Vec<LevelJob>, CreviceTest) {
@@ -857,10 +868,14 @@ impl Hierarchy {
         let t = Instant::now();
         progress.stage("Poisson-disk levels");
         let (jobs, crevice) = level_jobs(scene, p, &density, &pools);
-        let (sets, dropped) = match elsewhere.map(|f| f(scene, &pools, &jobs, &crevice)).transpose()? {
-            Some(Some(done)) => {
+        let (sets, dropped) = match elsewhere
+            .map(|f| f(scene, &pools, &jobs, &crevice, progress))
+            .transpose()?
+        {
+            Some(Some(t)) => {
                 stats.poisson_on = "device";
-                done
+                stats.poisson_rounds = t.rounds;
+                (t.sets, t.crevices)
             }
             _ => poisson_levels(scene, &pools, &jobs, &crevice),
         };
