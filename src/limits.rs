@@ -9,9 +9,10 @@ use std::path::Path;
 use crate::error::{Error, Result};
 
 /// Bytes planned per triangle while loading: the triangle (48 B), its corner uvs (24 B),
-/// BVH2 nodes (about 2 × 32 B), obvhs' build arrays (about 160 B) and the copies made
-/// while reordering and tessellating.
-pub const BYTES_PER_TRIANGLE: u64 = 384;
+/// BVH2 nodes (about 2 × 32 B), obvhs' build arrays (about 160 B), the copies made while
+/// reordering and tessellating, and the CWBVH (about 12 B, and 100 B for the
+/// single-triangle BVH2 it is converted from, while it is built).
+pub const BYTES_PER_TRIANGLE: u64 = 448;
 /// Bytes per candidate sample of the hierarchy build (position, normal, triangle, the
 /// crevice memo and the dart-throwing grid).
 pub const BYTES_PER_CANDIDATE: u64 = 48;

@@ -38,7 +38,7 @@ impl Variant {
     }
 }
 
-/// The BVH the GPU traverses (the CPU reference always traverses the BVH2).
+/// The BVH the GPU traverses (the CPU's rays always traverse the CWBVH).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhKind {

@@ -1,7 +1,10 @@
 //! One BVH2 per object, built here by binned SAH with a depth bound, traversed by a
 //! stack-based loop that the GPU kernels mirror (`trace_object` in
-//! `glsl/include/geometry.glsl`); the CWBVH the GPU may traverse instead is converted
-//! from a single-primitive BVH2 of the same builder by obvhs.
+//! `glsl/include/geometry.glsl`) and queried for boxes; and one CWBVH per object
+//! ([`CwForest`]), converted from a single-primitive BVH2 of the same builder by obvhs,
+//! which the CPU's rays traverse ([`trace_cw`]: obvhs' traversal order with a child test
+//! as conservative as the BVH2's, 1.5–1.6× the BVH2's rays per second) and the GPU may
+//! traverse instead of the BVH2 (`bvh = "cwbvh"`).
 //!
 //! The builder is O(n log n) on any input, repeated and coincident geometry included:
 //! a node whose centroids coincide is split at its index median, and a node whose
@@ -421,4 +424,189 @@ pub fn trace(
             }
         }
     }
+}
+
+/// Every object's CWBVH, for the CPU's rays ([`trace_cw`]) and, with `bvh = "cwbvh"`,
+/// the GPU's: one node array and one primitive array (global triangle indices), each
+/// object's root in `roots`.
+#[derive(Clone, Debug, Default)]
+pub struct CwForest {
+    pub nodes: Vec<CwNode>,
+    pub prims: Vec<u32>,
+    pub roots: Vec<u32>,
+}
+
+impl CwForest {
+    /// The CWBVHs of the objects whose triangles are `ranges` of `tris` (each already in
+    /// its BVH2's order), built in parallel and laid out in object order.
+    pub fn build(tris: &[Tri], ranges: &[std::ops::Range<usize>]) -> CwForest {
+        use rayon::prelude::*;
+        let parts: Vec<(Vec<CwNode>, Vec<u32>)> = ranges
+            .par_iter()
+            .map(|r| build_cwbvh(&tris[r.clone()], 0, 0, r.start as u32))
+            .collect();
+        let mut f = CwForest::default();
+        for (mut nodes, prims) in parts {
+            let (node_offset, prim_offset) = (f.nodes.len() as u32, f.prims.len() as u32);
+            for n in &mut nodes {
+                n.child_base_idx += node_offset;
+                n.primitive_base_idx += prim_offset;
+            }
+            f.roots.push(node_offset);
+            f.nodes.extend(nodes);
+            f.prims.extend(prims);
+        }
+        f
+    }
+}
+
+/// The node array the `obvhs::traverse!` macro walks.
+struct CwNodes<'a> {
+    nodes: &'a [CwNode],
+}
+
+/// The ray's octant as the CWBVH traversal orders children (obvhs'
+/// `ray_get_octant_inv4`).
+#[inline(always)]
+fn octant_inv4(d: Vec3) -> u32 {
+    (if d.x < 0.0 { 0 } else { 0x0404_0404 })
+        | (if d.y < 0.0 { 0 } else { 0x0202_0202 })
+        | (if d.z < 0.0 { 0 } else { 0x0101_0101 })
+}
+
+/// The children of `node` that a ray from `o` (`inv`: [`safe_inverse`] of its direction
+/// `d`) enters in `[0, tmax]`, as the traversal's hit mask: four boxes at a time with SSE.
+/// obvhs' `CwBvhNode::intersect_ray_simd` (MIT or Apache-2.0), with two changes that make
+/// it as conservative as [`slab`]: a box is entered from `t = 0` (obvhs clamps at `1e-4`
+/// scene units, which culls hits closer than that, e.g. in a crevice of a millimetre
+/// scene), and its far distance is widened by `SLAB_FAR` (Ize 2013).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn cw_children(node: &CwNode, o: Vec3A, inv: Vec3A, d: Vec3, tmax: f32, oct_inv4: u32) -> u32 {
+    use std::arch::x86_64::*;
+    let adj_inv = node.compute_extent() * inv;
+    let adj_o = (Vec3A::from(node.p) - o) * inv;
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hits = 0;
+    // SAFETY: SSE and SSE2 are part of the x86_64 baseline; every load is of a local.
+    unsafe {
+        let q = |v: &[u8; 8], i: usize| {
+            _mm_set_ps(
+                v[i * 4 + 3] as f32,
+                v[i * 4 + 2] as f32,
+                v[i * 4 + 1] as f32,
+                v[i * 4] as f32,
+            )
+        };
+        let (ix, iy, iz) = (_mm_set1_ps(adj_inv.x), _mm_set1_ps(adj_inv.y), _mm_set1_ps(adj_inv.z));
+        let (ox, oy, oz) = (_mm_set1_ps(adj_o.x), _mm_set1_ps(adj_o.y), _mm_set1_ps(adj_o.z));
+        let axis = |lo: __m128, hi: __m128, neg: bool, i: __m128, o: __m128| {
+            let (a, b) = if neg { (hi, lo) } else { (lo, hi) };
+            (_mm_add_ps(_mm_mul_ps(a, i), o), _mm_add_ps(_mm_mul_ps(b, i), o))
+        };
+        for i in 0..2 {
+            let (nx, fx) = axis(q(&node.child_min_x, i), q(&node.child_max_x, i), d.x < 0.0, ix, ox);
+            let (ny, fy) = axis(q(&node.child_min_y, i), q(&node.child_max_y, i), d.y < 0.0, iy, oy);
+            let (nz, fz) = axis(q(&node.child_min_z, i), q(&node.child_max_z, i), d.z < 0.0, iz, oz);
+            let t0 = _mm_max_ps(_mm_max_ps(nx, _mm_max_ps(ny, nz)), _mm_setzero_ps());
+            let t1 = _mm_min_ps(
+                _mm_mul_ps(
+                    _mm_min_ps(fx, _mm_min_ps(fy, fz)),
+                    _mm_set1_ps(crate::constants::SLAB_FAR),
+                ),
+                _mm_set1_ps(tmax),
+            );
+            let mask = _mm_movemask_ps(_mm_cmple_ps(t0, t1));
+            for j in 0..4 {
+                if mask & (1 << j) != 0 {
+                    let bits = obvhs::cwbvh::node::extract_byte64(child_bits8, i * 4 + j);
+                    let index = obvhs::cwbvh::node::extract_byte64(bit_index8, i * 4 + j);
+                    hits |= bits << index;
+                }
+            }
+        }
+    }
+    hits
+}
+
+/// [`cw_children`] one box at a time (targets without SSE).
+#[cfg(not(target_arch = "x86_64"))]
+#[inline(always)]
+fn cw_children(node: &CwNode, o: Vec3A, inv: Vec3A, d: Vec3, tmax: f32, oct_inv4: u32) -> u32 {
+    let adj_inv = node.compute_extent() * inv;
+    let adj_o = (Vec3A::from(node.p) - o) * inv;
+    let (rdx, rdy, rdz) = (d.x < 0.0, d.y < 0.0, d.z < 0.0);
+    let (child_bits8, bit_index8) = node.get_child_and_index_bits(oct_inv4);
+    let mut hits = 0;
+    for c in 0..8 {
+        let (lx, hx) = (node.child_min_x[c] as f32, node.child_max_x[c] as f32);
+        let (ly, hy) = (node.child_min_y[c] as f32, node.child_max_y[c] as f32);
+        let (lz, hz) = (node.child_min_z[c] as f32, node.child_max_z[c] as f32);
+        let near = Vec3A::new(
+            if rdx { hx } else { lx },
+            if rdy { hy } else { ly },
+            if rdz { hz } else { lz },
+        );
+        let far = Vec3A::new(
+            if rdx { lx } else { hx },
+            if rdy { ly } else { hy },
+            if rdz { lz } else { hz },
+        );
+        let t0 = (near * adj_inv + adj_o).max_element().max(0.0);
+        let t1 = ((far * adj_inv + adj_o).min_element() * crate::constants::SLAB_FAR).min(tmax);
+        if t0 <= t1 {
+            let bits = obvhs::cwbvh::node::extract_byte64(child_bits8, c);
+            let index = obvhs::cwbvh::node::extract_byte64(bit_index8, c);
+            hits |= bits << index;
+        }
+    }
+    hits
+}
+
+/// [`trace`] through the CWBVH rooted at `root` of `forest`: the same watertight
+/// triangle test, the closest hit in `(0, tmax)` (or, with `any`, the first). It agrees
+/// with [`trace`] but where two triangles lie within a rounding of the same distance, or
+/// a box is grazed within a rounding (`tests/stress.rs`, `cwbvh_traversal_agrees`).
+pub fn trace_cw(
+    forest: &CwForest,
+    tris: &[Tri],
+    root: u32,
+    ray: &Ray,
+    tmax: f32,
+    any: bool,
+) -> Option<(u32, f32, f32, f32)> {
+    use glam::{uvec2, UVec2};
+    if root as usize >= forest.nodes.len() {
+        return None;
+    }
+    let wt = WatertightRay::new(ray);
+    let (o, inv) = (Vec3A::from(ray.o), Vec3A::from(safe_inverse(ray.d)));
+    let walk = CwNodes { nodes: &forest.nodes };
+    let mut state = obvhs::cwbvh::Traversal {
+        current_group: uvec2(root, 0x8000_0000),
+        oct_inv4: octant_inv4(ray.d),
+        ..Default::default()
+    };
+    let mut best = None;
+    let mut t_best = tmax;
+    let mut node: &CwNode;
+    'walk: {
+        obvhs::traverse!(
+            walk,
+            node,
+            state,
+            cw_children(node, o, inv, ray.d, t_best, state.oct_inv4),
+            {
+                let i = forest.prims[state.primitive_id as usize];
+                if let Some((t, b1, b2)) = wt.intersect(&tris[i as usize], t_best) {
+                    t_best = t;
+                    best = Some((i, t, b1, b2));
+                    if any {
+                        break 'walk;
+                    }
+                }
+            }
+        );
+    }
+    best
 }

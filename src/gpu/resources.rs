@@ -13,7 +13,6 @@ use crate::constants::{
     COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_DIRECT, ENERGY_SLOTS, LIGHT_COUNTERS, LINK_COUNTERS, MAX_LEVELS,
 };
 use crate::error::Result;
-use crate::geom::bvh;
 use crate::geom::sampling::halton_table;
 use crate::hierarchy::Hierarchy;
 use crate::layout::CwNode;
@@ -62,20 +61,21 @@ pub struct Cwbvh {
 }
 
 impl Cwbvh {
-    /// The CWBVH if `p` asks for it; else none (every root 0, nothing uploaded).
+    /// The CWBVH if `p` asks for it (the scene's, which the CPU traverses); else none
+    /// (every root 0, nothing uploaded).
     pub fn build(scene: &Scene, p: &SolverParams) -> Cwbvh {
-        let mut cw = Cwbvh::default();
-        for o in &scene.objects {
-            let root = cw.nodes.len() as u32;
-            cw.roots.push(root);
-            if p.bvh == BvhKind::Cwbvh {
-                let tris = &scene.tris[o.tri_offset as usize..][..o.tri_count as usize];
-                let (nodes, prims) = bvh::build_cwbvh(tris, root, cw.prims.len() as u32, o.tri_offset);
-                cw.nodes.extend(nodes);
-                cw.prims.extend(prims);
+        if p.bvh == BvhKind::Cwbvh {
+            Cwbvh {
+                nodes: scene.cw.nodes.clone(),
+                prims: scene.cw.prims.clone(),
+                roots: scene.cw.roots.clone(),
+            }
+        } else {
+            Cwbvh {
+                roots: vec![0; scene.objects.len()],
+                ..Default::default()
             }
         }
-        cw
     }
 }
 

@@ -404,7 +404,6 @@ pub fn in_crevice_within(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32,
 
 /// [`in_crevice_within`] with every ray traced (tests).
 pub fn in_crevice_within_traced(scene: &Scene, o: usize, c: &Candidate, d_min_obj: f32, index: u32, diag: f32) -> bool {
-    let obj = &scene.objects[o];
     let origin = crate::geom::ray::offset_origin(c.pos, c.normal, diag);
     let (t, b) = onb(c.normal);
     let phi0 = integral_rotation(0x0c0e_u32, index);
@@ -413,7 +412,7 @@ pub fn in_crevice_within_traced(scene: &Scene, o: usize, c: &Candidate, d_min_ob
         let u = Vec2::new((k as f32 + 0.5) / 8.0, (k as f32 * 0.618_034).fract());
         let d = cosine_direction(c.normal, t, b, u, phi0);
         let ray = Ray { o: origin, d };
-        if crate::geom::bvh::trace(&scene.bvh, &scene.tris, obj.bvh_root, &ray, d_min_obj, true).is_some() {
+        if crate::geom::bvh::trace_cw(&scene.cw, &scene.tris, scene.cw.roots[o], &ray, d_min_obj, true).is_some() {
             near += 1;
         }
     }

@@ -77,6 +77,9 @@ pub struct Scene {
     /// Per-triangle uvs; empty when no material is textured.
     pub uvs: Vec<TriUv>,
     pub bvh: Vec<BvhNode>,
+    /// Every object's CWBVH over the same triangles: what the CPU's rays traverse
+    /// ([`bvh::trace_cw`]; the BVH2 serves box queries and the GPU's `bvh = "bvh2"`).
+    pub cw: bvh::CwForest,
     pub materials: Vec<Material>,
     pub material_names: Vec<String>,
     pub textures: Vec<TextureInfo>,
@@ -414,7 +417,7 @@ impl Scene {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            if let Some((tri, t, b1, b2)) = bvh::trace(&self.bvh, &self.tris, o.bvh_root, &r, tmax, false) {
+            if let Some((tri, t, b1, b2)) = bvh::trace_cw(&self.cw, &self.tris, self.cw.roots[i], &r, tmax, false) {
                 tmax = t;
                 best = Some(Hit {
                     object: i as u32,
@@ -430,12 +433,12 @@ impl Scene {
 
     /// Whether anything blocks a world-space ray in `(0, tmax)`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
-        self.objects.iter().any(|o| {
+        self.objects.iter().zip(&self.cw.roots).any(|(o, &root)| {
             let r = Ray {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            bvh::trace(&self.bvh, &self.tris, o.bvh_root, &r, tmax, true).is_some()
+            bvh::trace_cw(&self.cw, &self.tris, root, &r, tmax, true).is_some()
         })
     }
 
@@ -1344,7 +1347,14 @@ impl Builder {
             params.emitter_samples,
         );
         self.report.emitting_triangles = emitters.list.len();
+        let ranges: Vec<_> = self
+            .objects
+            .iter()
+            .map(|o| o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize)
+            .collect();
+        let cw = bvh::CwForest::build(&self.tris, &ranges);
         Ok(Scene {
+            cw,
             sky: None,
             emission,
             emitters,

@@ -64,9 +64,9 @@ impl ObjectReach {
     pub fn sides_for(&self, scene: &Scene) -> Vec<bool> {
         let mut lit = vec![false; self.component.len()];
         // Marks the component of the first side an object-space ray meets in object `o`.
-        let mut mark = |o: &super::SceneObject, ray: Ray| {
+        let mut mark = |o: usize, ray: Ray| {
             if let Some((t, _, _, _)) =
-                crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
+                crate::geom::bvh::trace_cw(&scene.cw, &scene.tris, scene.cw.roots[o], &ray, f32::INFINITY, false)
             {
                 let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
                 let back = g.dot(ray.d) > 0.0;
@@ -75,11 +75,11 @@ impl ObjectReach {
         };
         let spread = |k: u32| Vec2::new((k as f32 + 0.5) / 64.0, (k as f32 * 0.618_034).fract());
         for l in scene.lights.iter().filter(|l| l.kind != LIGHT_DIRECTIONAL) {
-            for o in &scene.objects {
+            for (oi, o) in scene.objects.iter().enumerate() {
                 let p = crate::geom::transform::xform_point(&o.to_object, Vec3::from(l.position));
                 for k in 0..64u32 {
                     mark(
-                        o,
+                        oi,
                         Ray {
                             o: p,
                             d: uniform_sphere(spread(k)),
@@ -101,9 +101,9 @@ impl ObjectReach {
             let start = scene.offset(y, n);
             for k in 0..64u32 {
                 let d = cosine_direction(n, tb, bb, spread(k), 0.0);
-                for o in &scene.objects {
+                for (oi, o) in scene.objects.iter().enumerate() {
                     mark(
-                        o,
+                        oi,
                         Ray {
                             o: crate::geom::transform::xform_point(&o.to_object, start),
                             d: crate::geom::transform::xform_vector(&o.to_object, d),
@@ -148,9 +148,14 @@ fn outside_marks(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool
                 };
                 let mut ray = Ray { o: a, d };
                 for _ in 0..bounces {
-                    let Some((t, dist, b1, b2)) =
-                        crate::geom::bvh::trace(&scene.bvh, &scene.tris, o.bvh_root, &ray, f32::INFINITY, false)
-                    else {
+                    let Some((t, dist, b1, b2)) = crate::geom::bvh::trace_cw(
+                        &scene.cw,
+                        &scene.tris,
+                        scene.cw.roots[i],
+                        &ray,
+                        f32::INFINITY,
+                        false,
+                    ) else {
                         break;
                     };
                     let _ = dist;
