@@ -76,16 +76,7 @@ pub fn levels_on_device(
         .objects
         .iter()
         .zip(&cw.roots)
-        .map(|(o, &root)| ObjectInfo {
-            to_object: o.to_object,
-            to_world: o.to_world,
-            scale: o.transform.scale,
-            tri_offset: o.tri_offset,
-            tri_count: o.tri_count,
-            bvh_offset: o.bvh_root,
-            cw_root: root,
-            ..Default::default()
-        })
+        .map(|(o, &root)| o.info(root))
         .collect();
     let tris = Buffer::upload(ctx, "triangles", &scene.tris[..])?;
     let bvh = Buffer::upload(ctx, "bvh", &scene.bvh[..])?;

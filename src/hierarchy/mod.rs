@@ -1251,15 +1251,7 @@ impl Hierarchy {
             .iter()
             .zip(&self.objects)
             .map(|(o, ol)| {
-                let mut info = ObjectInfo {
-                    to_object: o.to_object,
-                    to_world: o.to_world,
-                    scale: o.transform.scale,
-                    tri_offset: o.tri_offset,
-                    tri_count: o.tri_count,
-                    bvh_offset: o.bvh_root,
-                    ..Default::default()
-                };
+                let mut info = o.info(0);
                 for l in 0..(self.levels as usize).min(MAX_LEVELS as usize) {
                     info.level_start[l] = ol.start[l];
                     info.level_count[l] = ol.count[l];

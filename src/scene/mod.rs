@@ -24,7 +24,7 @@ use crate::geom::bvh;
 use crate::geom::ray::{offset_origin, tri_normal, tri_point, WatertightRay};
 use crate::geom::transform::{xform_point, xform_vector, Affine};
 use crate::geom::{Hit, Ray, Transform};
-use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
+use crate::layout::{BvhNode, GpuLight, Material, ObjectInfo, TextureInfo, Tri, TriUv, NONE};
 use crate::limits::{Limits, Part};
 use crate::params::SolverParams;
 
@@ -44,6 +44,23 @@ pub struct SceneObject {
     pub area: f64,
     /// Its materials' emission lights the scene (`[[object]] emission`, default true).
     pub emits: bool,
+}
+
+impl SceneObject {
+    /// The object's record as the kernels read it, without the hierarchy's levels: its
+    /// transforms, triangle range and BVH2 root, and `cw_root` for its CWBVH.
+    pub fn info(&self, cw_root: u32) -> ObjectInfo {
+        ObjectInfo {
+            to_object: self.to_object,
+            to_world: self.to_world,
+            scale: self.transform.scale,
+            tri_offset: self.tri_offset,
+            tri_count: self.tri_count,
+            bvh_offset: self.bvh_root,
+            cw_root,
+            ..Default::default()
+        }
+    }
 }
 
 /// What loading reported (also written to stats.json).
