@@ -748,7 +748,6 @@ fn poisson_levels(
 /// ranges and object-space radii.
 fn assemble(scene: &Scene, d: &Density, sets: Vec<Vec<Candidate>>) -> (Vec<Node>, Vec<u32>, Vec<ObjectLevels>) {
     let m = d.radius.len();
-    let mut nodes = Vec::new();
     let mut level_start = Vec::with_capacity(m + 1);
     let mut objects = vec![
         ObjectLevels {
@@ -758,22 +757,47 @@ fn assemble(scene: &Scene, d: &Density, sets: Vec<Vec<Candidate>>) -> (Vec<Node>
         };
         scene.objects.len()
     ];
+    // Where each (level, object) block goes, level-major.
+    let mut blocks = Vec::with_capacity(m * scene.objects.len());
+    let mut at = 0usize;
     for l in 0..m {
-        level_start.push(nodes.len() as u32);
+        level_start.push(at as u32);
         for (o, obj) in scene.objects.iter().enumerate() {
             let set = &sets[o * m + l];
-            objects[o].start[l] = nodes.len() as u32;
+            objects[o].start[l] = at as u32;
             objects[o].count[l] = set.len() as u32;
             objects[o].radius[l] = (d.radius[l] / obj.transform.scale as f64) as f32;
-            nodes.extend(set.iter().map(|c| Node {
-                pos: c.pos.into(),
-                level: l as u32,
-                normal: c.normal.into(),
-                object: o as u32,
-            }));
+            blocks.push((l, o, set));
+            at += set.len();
         }
     }
-    level_start.push(nodes.len() as u32);
+    level_start.push(at as u32);
+    // The blocks written into place in parallel.
+    let mut nodes: Vec<Node> = Vec::with_capacity(at);
+    let mut rest = &mut nodes.spare_capacity_mut()[..at];
+    let mut parts = Vec::with_capacity(blocks.len());
+    for (l, o, set) in blocks {
+        let (part, tail) = std::mem::take(&mut rest).split_at_mut(set.len());
+        parts.push((l, o, set, part));
+        rest = tail;
+    }
+    const CHUNK: usize = 1 << 15;
+    parts.into_par_iter().for_each(|(l, o, set, part)| {
+        part.par_chunks_mut(CHUNK)
+            .zip(set.par_chunks(CHUNK))
+            .for_each(|(part, set)| {
+                for (dst, c) in part.iter_mut().zip(set) {
+                    dst.write(Node {
+                        pos: c.pos.into(),
+                        level: l as u32,
+                        normal: c.normal.into(),
+                        object: o as u32,
+                    });
+                }
+            })
+    });
+    // SAFETY: the blocks tile the first `at` slots, and every slot of each was written.
+    unsafe { nodes.set_len(at) };
     (nodes, level_start, objects)
 }
 
@@ -922,12 +946,18 @@ impl Hierarchy {
     pub fn arrange(&mut self, scene: &Scene, p: &SolverParams, progress: &Progress) {
         let t = Instant::now();
         progress.stage("support clipping");
-        self.clips = vec![weight::NO_CLIP; self.nodes.len()];
-        if p.support_clip {
-            for (i, c) in cpu_clips(scene, self, &ClipSelection::All) {
-                self.clips[i] = c;
-            }
-        }
+        self.clips = if p.support_clip {
+            // Every node's, written in place in parallel (no list of pairs to scatter).
+            (0..self.nodes.len())
+                .into_par_iter()
+                .map_init(
+                    || Vec::with_capacity(NEAR_CAP + 1),
+                    |near, i| node_clip_in(scene, self, i, near),
+                )
+                .collect()
+        } else {
+            vec![weight::NO_CLIP; self.nodes.len()]
+        };
         self.stats.seconds_clips = t.elapsed().as_secs_f64();
         self.stats.clipped_nodes = self.clips.iter().filter(|c| **c != weight::NO_CLIP).count();
         let t = Instant::now();
@@ -1196,10 +1226,25 @@ impl Hierarchy {
             acc += k;
         }
         self.parent_offset.push(acc);
-        self.parents = Vec::with_capacity(acc as usize);
-        for g in lists {
-            self.parents.extend_from_slice(&g.parents);
+        // The runs' lists copied into place in parallel.
+        let total = acc as usize;
+        let mut parents: Vec<Parent> = Vec::with_capacity(total);
+        let mut rest = &mut parents.spare_capacity_mut()[..total];
+        let mut parts = Vec::with_capacity(lists.len());
+        for g in &lists {
+            let (part, tail) = std::mem::take(&mut rest).split_at_mut(g.parents.len());
+            parts.push((part, &g.parents));
+            rest = tail;
         }
+        parts.into_par_iter().for_each(|(dst, src)| {
+            for (d, q) in dst.iter_mut().zip(src) {
+                d.write(*q);
+            }
+        });
+        // SAFETY: the runs' parts tile the first `total` slots (their lengths sum to
+        // `total`, the last offset), and every slot of each part was written above.
+        unsafe { parents.set_len(total) };
+        self.parents = parents;
         self.stats.parent_holes_per_level = holes;
         self.stats.orphans_per_level = orphans;
 

@@ -57,26 +57,27 @@ pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<
         }
         k.min(cdf.len() - 1)
     };
-    // Each chunk of 4096 draws its own stream and fills its own part of the pool.
+    // Each chunk of 4096 draws its own stream and fills its own part of the pool, written
+    // once, in parallel (a pool first filled with zeros took one thread 0.07 s on Sponza's
+    // 8 M candidates, the first touch of 192 MB).
     const CHUNK: usize = 4096;
-    let mut pool = vec![
-        Candidate {
-            pos: Vec3::ZERO,
-            normal: Vec3::ZERO
-        };
-        count
-    ];
-    pool.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
-        let mut rng = Rng::new(seed, c as u64);
-        for o in out {
-            let (t, normal) = which[side(rng.next_f64() * total)];
-            let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
-            *o = Candidate {
-                pos: tri_point(&tris[t], b1, b2),
-                normal,
-            };
-        }
-    });
+    let mut pool: Vec<Candidate> = Vec::with_capacity(count);
+    pool.spare_capacity_mut()[..count]
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .for_each(|(c, out)| {
+            let mut rng = Rng::new(seed, c as u64);
+            for o in out {
+                let (t, normal) = which[side(rng.next_f64() * total)];
+                let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
+                o.write(Candidate {
+                    pos: tri_point(&tris[t], b1, b2),
+                    normal,
+                });
+            }
+        });
+    // SAFETY: the chunks tile the first `count` slots, and each slot was written above.
+    unsafe { pool.set_len(count) };
     pool
 }
 
