@@ -48,7 +48,7 @@ pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
 }
 
 /// [`node_clip`] with `near` as scratch for the gathered triangles (one per thread in
-/// [`cpu_clips`], not one allocation per node).
+/// [`cpu_clips`] and [`Hierarchy::arrange`], not one allocation per node).
 fn node_clip_in(scene: &Scene, h: &Hierarchy, i: usize, near: &mut Vec<(u32, u32)>) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
@@ -195,7 +195,8 @@ impl ClipSelection {
 }
 
 /// Computes the support clips of the nodes a selection holds, on the CPU: `(node, clip)`
-/// in node order.
+/// in node order (after a move; a whole arrangement writes every node's clip in place,
+/// [`Hierarchy::arrange`]).
 pub fn cpu_clips(scene: &Scene, h: &Hierarchy, sel: &ClipSelection) -> Vec<(usize, weight::Clip)> {
     (0..h.nodes.len())
         .into_par_iter()
