@@ -175,7 +175,7 @@ pub struct SolverParams {
     pub support_clip: bool,
     /// GPU: gathering integrals in flight per batch (0: sized from the device).
     pub batch_integrals: u32,
-    /// GPU: the BVH layout traversed.
+    /// GPU: the BVH layout traversed (default `cwbvh`, what the CPU's rays traverse).
     pub bvh: BvhKind,
     /// GPU: where the Poisson-disk levels are thrown, `"host"` or `"device"`; unset: on
     /// the device unless it is a CPU (lavapipe), where the host's native code is faster,
@@ -218,7 +218,7 @@ impl Default for SolverParams {
             crevice_distance: 1.0,
             support_clip: true,
             batch_integrals: 0,
-            bvh: BvhKind::Bvh2,
+            bvh: BvhKind::Cwbvh,
             dart_throwing: None,
         }
     }

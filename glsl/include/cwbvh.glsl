@@ -1,8 +1,10 @@
 // Traversal of a compressed wide BVH (CWBVH, Ylitie, Karras & Laine 2017) as obvhs builds
 // it: 8-wide nodes of 80 bytes with child boxes quantised to a per-node grid, children
 // visited in ray-octant order, leaves of up to 3 triangles. A port of obvhs'
-// `traverse!` macro and `CwBvhNode::intersect_ray_basic`; triangles are reached through
-// `cw_prims` (the canonical, BVH2 order is kept for the CPU reference).
+// `traverse!` macro and `CwBvhNode::intersect_ray_basic`, with boxes entered from t = 0
+// and widened by SLAB_FAR (the CPU's twin: geom::bvh::trace_cw); triangles are reached
+// through `cw_prims` (the triangles stay in the BVH2's order, which box queries and
+// `bvh = "bvh2"` use).
 #ifndef CWBVH_GLSL
 #define CWBVH_GLSL
 

@@ -95,7 +95,8 @@ pub struct Scene {
     pub uvs: Vec<TriUv>,
     pub bvh: Vec<BvhNode>,
     /// Every object's CWBVH over the same triangles: what the CPU's rays traverse
-    /// ([`bvh::trace_cw`]; the BVH2 serves box queries and the GPU's `bvh = "bvh2"`).
+    /// ([`bvh::trace_cw`]) and the GPU's by default; the BVH2 serves box queries and the
+    /// GPU's `bvh = "bvh2"`.
     pub cw: bvh::CwForest,
     pub materials: Vec<Material>,
     pub material_names: Vec<String>,
