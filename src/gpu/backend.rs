@@ -14,7 +14,7 @@ use super::globals::{LINK_RECORD_BYTES, RAY_BYTES};
 use super::kernels::{Kernels, Recorder};
 use super::pipeline::Specialization;
 use super::profiler::Profiler;
-use super::resources::{Cwbvh, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
+use super::resources::{cwbvh_of, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use super::schedule::{Active, Schedule};
 use crate::constants::{
     BVH_BVH2, BVH_CWBVH, COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_REFINED, ENERGY_DIRECT, ENERGY_UNSHOT,
@@ -91,8 +91,6 @@ pub struct GpuBackend<'a> {
     samples: u32,
     /// The nodes' direct-light sampling error, from the last `direct`.
     direct_error: Option<crate::transport::DirectError>,
-    /// Each object's CWBVH root (its `ObjectInfo::cw_root`).
-    cw_roots: Vec<u32>,
     /// The next solve reads the last solve's links ([`GpuBackend::keep_links`]).
     keep_links: bool,
     /// The link counters when the last solve ended (a kept solve counts from there).
@@ -112,7 +110,6 @@ pub struct GpuResident {
     prof: Profiler,
     res: Resources,
     batch: u32,
-    cw_roots: Vec<u32>,
     /// The link counters when the last solve ended (`None` before the first solve).
     link_base: Option<[u32; LINK_COUNTERS as usize]>,
     report: GpuReport,
@@ -146,15 +143,14 @@ impl GpuResident {
         let seconds_pipelines = t.elapsed().as_secs_f64();
         let t = Instant::now();
         let batch = batch_size(ctx, p);
-        let cw = Cwbvh::build(scene, p);
-        let res = Resources::new(ctx, scene, h, p, &cw, batch)?;
+        let res = Resources::new(ctx, scene, h, p, batch)?;
         let report = GpuReport {
             device: ctx.info.name.clone(),
             driver: format!("{} {}", ctx.info.driver_name, ctx.info.driver_info),
             api_version: ctx.info.api_version.clone(),
             batch_integrals: batch,
             bytes_uploaded: res.scene.bytes(),
-            cwbvh_nodes: cw.nodes.len(),
+            cwbvh_nodes: cwbvh_of(scene, p).0.len(),
             seconds_upload: t.elapsed().as_secs_f64(),
             seconds_pipelines,
             skipped: skipped_by_construction(p, scene),
@@ -166,7 +162,6 @@ impl GpuResident {
             arrange,
             res,
             batch,
-            cw_roots: cw.roots,
             link_base: None,
             report,
         })
@@ -208,7 +203,7 @@ impl GpuResident {
         let sel = match moved {
             None => ClipSelection::All,
             Some((before, objects)) => {
-                up += self.res.upload_objects(ctx, scene, h, &self.cw_roots)?;
+                up += self.res.upload_objects(ctx, scene, h)?;
                 ClipSelection::after(scene, before, objects)
             }
         };
@@ -264,7 +259,6 @@ impl<'a> GpuBackend<'a> {
             prof: self.prof,
             res: self.res,
             batch: self.batch,
-            cw_roots: self.cw_roots,
             report,
         }
     }
@@ -298,7 +292,6 @@ impl<'a> GpuBackend<'a> {
             sampled_sources: scene.emitters.any() as u32 + scene.sky.is_some() as u32,
             samples: scene.emitters.samples() as u32,
             direct_error: None,
-            cw_roots: r.cw_roots,
             keep_links: false,
             link_base: r.link_base,
             solved: false,

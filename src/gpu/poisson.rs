@@ -24,7 +24,7 @@ use super::kernels::poisson::{Poisson, PoissonPush, COUNT, IN, RESOLVE, SCATTER}
 use super::kernels::scan::Scan;
 use super::kernels::submit;
 use super::profiler::Profiler;
-use super::resources::Cwbvh;
+use super::resources::cwbvh_of;
 use crate::error::{Error, Result};
 use crate::hierarchy::poisson::Candidate;
 use crate::hierarchy::{CreviceTest, LevelJob, Thrown};
@@ -71,17 +71,17 @@ pub fn levels_on_device(
     let mut prof = Profiler::new(ctx)?;
 
     // What the crevice rays read: triangles, BVHs, transforms.
-    let cw = Cwbvh::build(scene, p);
+    let (cw_nodes, cw_prims) = cwbvh_of(scene, p);
     let objects: Vec<ObjectInfo> = scene
         .objects
         .iter()
-        .zip(&cw.roots)
+        .zip(&scene.cw.roots)
         .map(|(o, &root)| o.info(root))
         .collect();
     let tris = Buffer::upload(ctx, "triangles", &scene.tris[..])?;
     let bvh = Buffer::upload(ctx, "bvh", &scene.bvh[..])?;
-    let cw_nodes = Buffer::upload(ctx, "cwbvh nodes", &cw.nodes[..])?;
-    let cw_prims = Buffer::upload(ctx, "cwbvh primitives", &cw.prims[..])?;
+    let cw_nodes = Buffer::upload(ctx, "cwbvh nodes", cw_nodes)?;
+    let cw_prims = Buffer::upload(ctx, "cwbvh primitives", cw_prims)?;
     let object_buf = Buffer::upload(ctx, "objects", &objects[..])?;
     let g = Globals {
         tris: tris.address,

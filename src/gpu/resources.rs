@@ -49,33 +49,13 @@ pub struct SceneBuffers {
     pub sky_prob: Buffer,
 }
 
-/// The compressed wide BVH of every object, for `bvh = "cwbvh"`: built here, by the GPU
-/// backend, from the scene's triangles (each object's already in its BVH2's order).
-#[derive(Default)]
-pub struct Cwbvh {
-    pub nodes: Vec<CwNode>,
-    /// Global triangle indices of the leaves.
-    pub prims: Vec<u32>,
-    /// Each object's root in `nodes`.
-    pub roots: Vec<u32>,
-}
-
-impl Cwbvh {
-    /// The CWBVH if `p` asks for it (the scene's, which the CPU traverses); else none
-    /// (every root 0, nothing uploaded).
-    pub fn build(scene: &Scene, p: &SolverParams) -> Cwbvh {
-        if p.bvh == BvhKind::Cwbvh {
-            Cwbvh {
-                nodes: scene.cw.nodes.clone(),
-                prims: scene.cw.prims.clone(),
-                roots: scene.cw.roots.clone(),
-            }
-        } else {
-            Cwbvh {
-                roots: vec![0; scene.objects.len()],
-                ..Default::default()
-            }
-        }
+/// The CWBVH arrays the device gets: the scene's (which the CPU's rays traverse) for
+/// `bvh = "cwbvh"`, none for `bvh2`.
+pub fn cwbvh_of<'a>(scene: &'a Scene, p: &SolverParams) -> (&'a [CwNode], &'a [u32]) {
+    if p.bvh == BvhKind::Cwbvh {
+        (&scene.cw.nodes, &scene.cw.prims)
+    } else {
+        (&[], &[])
     }
 }
 
@@ -86,11 +66,9 @@ fn side_bits(sides: &[bool]) -> Vec<u32> {
 }
 
 impl SceneBuffers {
-    fn upload(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams, cw: &Cwbvh) -> Result<SceneBuffers> {
-        let mut objects = h.object_infos(scene);
-        for (info, &root) in objects.iter_mut().zip(&cw.roots) {
-            info.cw_root = root;
-        }
+    fn upload(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Result<SceneBuffers> {
+        let objects = h.object_infos(scene);
+        let (cw_nodes, cw_prims) = cwbvh_of(scene, p);
         let (emitters, points) = scene.emitters.gpu_tables();
         let sky = match &scene.sky {
             Some(crate::scene::sky::Sky::Map(m)) => m.gpu_tables(),
@@ -100,8 +78,8 @@ impl SceneBuffers {
             tris: Buffer::upload(ctx, "triangles", &scene.tris[..])?,
             uvs: Buffer::upload(ctx, "uvs", &scene.uvs[..])?,
             bvh: Buffer::upload(ctx, "bvh", &scene.bvh[..])?,
-            cw_nodes: Buffer::upload(ctx, "cwbvh nodes", &cw.nodes[..])?,
-            cw_prims: Buffer::upload(ctx, "cwbvh primitives", &cw.prims[..])?,
+            cw_nodes: Buffer::upload(ctx, "cwbvh nodes", cw_nodes)?,
+            cw_prims: Buffer::upload(ctx, "cwbvh primitives", cw_prims)?,
             materials: Buffer::upload(ctx, "materials", &scene.materials[..])?,
             textures: Buffer::upload(ctx, "textures", &scene.textures[..])?,
             texels: Buffer::upload(ctx, "texels", &scene.texels[..])?,
@@ -247,16 +225,9 @@ fn vec4_bytes(n: usize) -> u64 {
 }
 
 impl Resources {
-    /// Uploads the scene, its CWBVH `cw` and the hierarchy, and allocates the state for
-    /// `batch` integrals in flight.
-    pub fn new(
-        ctx: &Arc<Context>,
-        scene: &Scene,
-        h: &Hierarchy,
-        p: &SolverParams,
-        cw: &Cwbvh,
-        batch: u32,
-    ) -> Result<Resources> {
+    /// Uploads the scene (with its CWBVH for `bvh = "cwbvh"`) and the hierarchy, and
+    /// allocates the state for `batch` integrals in flight.
+    pub fn new(ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy, p: &SolverParams, batch: u32) -> Result<Resources> {
         let n = h.nodes.len();
         let largest_level = (0..h.levels as usize)
             .map(|l| h.level_range(l).len())
@@ -264,7 +235,7 @@ impl Resources {
             .unwrap_or(0);
         let z = |name: &str, size: u64| Buffer::zeroed(ctx, name, size);
         let device = |name: &str, size: u64| Buffer::new(ctx, name, size, MemoryLocation::GpuOnly);
-        let sc = SceneBuffers::upload(ctx, scene, h, p, cw)?;
+        let sc = SceneBuffers::upload(ctx, scene, h, p)?;
         let links = link_capacity(ctx, p, n);
         let state = NodeState {
             direct: z("direct", vec4_bytes(n))?,
@@ -326,19 +297,10 @@ impl Resources {
         Ok(self.scene.lights.size + self.write_globals(ctx, scene, h, p)?)
     }
 
-    /// After objects moved: uploads their transforms (`ObjectInfo`, with each object's
-    /// CWBVH root `cw_roots`). `Globals` must be written again before a kernel reads them.
-    pub fn upload_objects(
-        &mut self,
-        ctx: &Arc<Context>,
-        scene: &Scene,
-        h: &Hierarchy,
-        cw_roots: &[u32],
-    ) -> Result<u64> {
-        let mut objects = h.object_infos(scene);
-        for (info, &root) in objects.iter_mut().zip(cw_roots) {
-            info.cw_root = root;
-        }
+    /// After objects moved: uploads their transforms (`ObjectInfo`). `Globals` must be
+    /// written again before a kernel reads them.
+    pub fn upload_objects(&mut self, ctx: &Arc<Context>, scene: &Scene, h: &Hierarchy) -> Result<u64> {
+        let objects = h.object_infos(scene);
         self.scene.objects = Buffer::upload(ctx, "objects", &objects[..])?;
         Ok(self.scene.objects.size + self.scene.upload_emitters(ctx, scene)?)
     }

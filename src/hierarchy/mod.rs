@@ -1296,8 +1296,9 @@ impl Hierarchy {
             .objects
             .iter()
             .zip(&self.objects)
-            .map(|(o, ol)| {
-                let mut info = o.info(0);
+            .zip(&scene.cw.roots)
+            .map(|((o, ol), &root)| {
+                let mut info = o.info(root);
                 for l in 0..(self.levels as usize).min(MAX_LEVELS as usize) {
                     info.level_start[l] = ol.start[l];
                     info.level_count[l] = ol.count[l];
