@@ -271,12 +271,11 @@ pub fn slab(node: &BvhNode, o: Vec3, inv: Vec3, tmax: f32) -> f32 {
     }
 }
 
-/// A CWBVH over `tris` (already in BVH2 order) placed at `node_offset` in a shared node
-/// array, its leaves indexing a shared primitive array at `prim_offset` that holds global
-/// triangle indices (`tri_offset` + local). Converted by obvhs from a single-triangle
-/// BVH2 whose depth stays within the GPU's CWBVH stack (a wide level covers at least one
-/// binary level).
-pub fn build_cwbvh(tris: &[Tri], node_offset: u32, prim_offset: u32, tri_offset: u32) -> (Vec<CwNode>, Vec<u32>) {
+/// A CWBVH over `tris` (already in BVH2 order), its leaves indexing a primitive array
+/// that holds global triangle indices (`tri_offset` + local). Converted by obvhs from a
+/// single-triangle BVH2 whose depth stays within the CWBVH stack (a wide level covers at
+/// least one binary level). [`CwForest::build`] places it in the shared arrays.
+fn build_cwbvh(tris: &[Tri], tri_offset: u32) -> (Vec<CwNode>, Vec<u32>) {
     let (nodes, order) = build_nodes(tris, 1, CWBVH_STACK);
     let bvh2 = Bvh2 {
         nodes,
@@ -284,13 +283,8 @@ pub fn build_cwbvh(tris: &[Tri], node_offset: u32, prim_offset: u32, tri_offset:
         ..Default::default()
     };
     let cw = obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(&bvh2, 3, true, false);
-    let mut nodes = cw.nodes;
-    for n in &mut nodes {
-        n.child_base_idx += node_offset;
-        n.primitive_base_idx += prim_offset;
-    }
     let prims = cw.primitive_indices.iter().map(|&i| i + tri_offset).collect();
-    (nodes, prims)
+    (cw.nodes, prims)
 }
 
 /// Shifts a BVH's indices so that it can live at `node_offset` in a shared node array
@@ -443,7 +437,7 @@ impl CwForest {
         use rayon::prelude::*;
         let parts: Vec<(Vec<CwNode>, Vec<u32>)> = ranges
             .par_iter()
-            .map(|r| build_cwbvh(&tris[r.clone()], 0, 0, r.start as u32))
+            .map(|r| build_cwbvh(&tris[r.clone()], r.start as u32))
             .collect();
         let mut f = CwForest::default();
         for (mut nodes, prims) in parts {
