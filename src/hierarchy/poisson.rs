@@ -142,6 +142,15 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
+/// Which cells about a candidate's own [`Grid::open_in_cells`] looks in.
+#[derive(Clone, Copy)]
+enum Neighbours {
+    /// Those across a face of the own cell.
+    Faces,
+    /// Those across an edge or a corner.
+    EdgesAndCorners,
+}
+
 /// A uniform grid over accepted points with per-cell lists, hashed by linear probing.
 /// Cells are `2r` wide, so the ball of radius `r` about a point meets at most two cells
 /// per axis: eight lookups where cells of `r` take twenty-seven. Dart throwing is bound by
@@ -291,45 +300,107 @@ impl Grid {
 
     /// Whether a cell of the neighbourhood of the candidates `which` of `all`, other than
     /// their own cells (which [`Self::open_in_own_cell`] tested), holds a conflicting
+    /// point; `keep` gets the others, in order. In two passes: first the cells across a
+    /// face of the own cell (the nearest, where most conflicts are), then, for the
+    /// candidates those leave open, the cells across an edge or a corner: a candidate
+    /// rejected early costs no lookups of the far cells. Each pass skips the cells the
+    /// ball of radius `r` cannot reach ([`Self::neighbours`]).
+    fn open_in_neighbourhood(&self, all: &[Candidate], which: &[usize], keep: impl FnMut(usize)) {
+        let mut left = Vec::with_capacity(which.len());
+        self.open_in_cells(all, which, Neighbours::Faces, |i| left.push(i));
+        self.open_in_cells(all, &left, Neighbours::EdgesAndCorners, keep);
+    }
+
+    /// The cells of `kind` about candidate `c` that a point within `r` of it can lie in,
+    /// into `out` (their keys): those whose distance from `c` (bounded from below, with
+    /// a margin for the rounding of the cell coordinates and of the distance test) is
+    /// less than `r`. `None` where `c ± r` rounds across two borders on an axis (`r` near
+    /// the ulp of the coordinates): such a candidate takes the plain test.
+    #[inline]
+    fn neighbours(&self, c: Vec3, kind: Neighbours, out: &mut [[i32; 3]; 4]) -> Option<usize> {
+        // Every point within r lies in a cell between those of p - r and p + r (rounding
+        // is monotonic); cells are 2r wide, so two per axis, three where p ± r rounds
+        // across one more border.
+        let own = self.cell(c);
+        let lo = self.cell(c - Vec3::splat(self.r));
+        let hi = self.cell(c + Vec3::splat(self.r));
+        let u = c * self.inv_cell;
+        // Per axis: the other cell (if any) and the gap to it, in cell units. A point q in
+        // the cell above has fl(q/2r) >= own + 1, c has fl(c/2r) = u; the slack covers the
+        // rounding of both products.
+        let mut other = [0i32; 3];
+        let mut gap2 = [0.0f64; 3];
+        let mut span = 0u32;
+        for a in 0..3 {
+            if hi[a] - lo[a] > 1 {
+                return None;
+            }
+            let slack = 4.0 * f32::EPSILON as f64 * (u[a].abs() as f64 + 1.0);
+            if hi[a] > own[a] {
+                other[a] = hi[a];
+                gap2[a] = ((hi[a] as f64 - u[a] as f64) - slack).max(0.0).powi(2);
+                span |= 1 << a;
+            } else if lo[a] < own[a] {
+                other[a] = lo[a];
+                gap2[a] = ((u[a] as f64 - own[a] as f64) - slack).max(0.0).powi(2);
+                span |= 1 << a;
+            }
+        }
+        // (r / 2r)² with a margin for the rounding of `inv_cell` and of the distance test.
+        const REACH2: f64 = 0.25 * (1.0 + 1e-4);
+        let mut n = 0;
+        for m in 1u32..8 {
+            let ones = m.count_ones();
+            let wanted = match kind {
+                Neighbours::Faces => ones == 1,
+                Neighbours::EdgesAndCorners => ones >= 2,
+            };
+            if !wanted || m & span != m {
+                continue;
+            }
+            let d2: f64 = (0..3).filter(|a| m & (1 << a) != 0).map(|a| gap2[a]).sum();
+            if d2 < REACH2 {
+                let mut k = own;
+                for a in 0..3 {
+                    if m & (1 << a) != 0 {
+                        k[a] = other[a];
+                    }
+                }
+                out[n] = k;
+                n += 1;
+            }
+        }
+        Some(n)
+    }
+
+    /// Whether a cell of `kind` about the candidates `which` of `all` holds a conflicting
     /// point; `keep` gets the others, in order. A pipeline: candidate `i + 3D` prefetches
     /// its cells' home slots, candidate `i + 2D` finds the slots and prefetches their
     /// first blocks, candidate `i + D` their second blocks, candidate `i` is tested.
-    fn open_in_neighbourhood(&self, all: &[Candidate], which: &[usize], mut keep: impl FnMut(usize)) {
+    fn open_in_cells(&self, all: &[Candidate], which: &[usize], kind: Neighbours, mut keep: impl FnMut(usize)) {
         const D: usize = 8;
         const RING: usize = 4 * D;
-        // Every point within r lies in a cell between those of p - r and p + r (rounding
-        // is monotonic); cells are 2r wide, so two per axis, three where p ± r rounds
-        // across one more border: 26 other cells. (More only where r is near the ulp of
-        // the coordinates: such a candidate takes the plain test.)
-        const MAX: usize = 26;
+        const MAX: usize = 4;
+        const PLAIN: usize = usize::MAX;
         let mut keys = [[[0i32; 3]; MAX]; RING];
         let mut homes = [[0usize; MAX]; RING];
         let mut heads = [[NONE; MAX]; RING];
         let mut counts = [0usize; RING];
         for i in 0..which.len() + 3 * D {
             if i < which.len() {
+                let e = i % RING;
                 let c = &all[which[i]];
-                let own = self.cell(c.pos);
-                let lo = self.cell(c.pos - Vec3::splat(self.r));
-                let hi = self.cell(c.pos + Vec3::splat(self.r));
-                let mut n = 0;
-                for x in lo[0]..=hi[0] {
-                    for y in lo[1]..=hi[1] {
-                        for z in lo[2]..=hi[2] {
-                            let k = [x, y, z];
-                            if k != own {
-                                if n < MAX {
-                                    let h = self.home(k);
-                                    prefetch(&self.slots[h]);
-                                    keys[i % RING][n] = k;
-                                    homes[i % RING][n] = h;
-                                }
-                                n += 1;
-                            }
+                counts[e] = match self.neighbours(c.pos, kind, &mut keys[e]) {
+                    Some(n) => {
+                        for k in 0..n {
+                            let h = self.home(keys[e][k]);
+                            prefetch(&self.slots[h]);
+                            homes[e][k] = h;
                         }
+                        n
                     }
-                }
-                counts[i % RING] = n;
+                    None => PLAIN,
+                };
             }
             if let Some(b) = i.checked_sub(D).filter(|&b| b < which.len()) {
                 let e = b % RING;
@@ -349,7 +420,7 @@ impl Grid {
             if let Some(t) = i.checked_sub(3 * D).filter(|&t| t < which.len()) {
                 let c = &all[which[t]];
                 let e = t % RING;
-                let conflict = if counts[e] > MAX {
+                let conflict = if counts[e] == PLAIN {
                     self.conflicts(c)
                 } else {
                     heads[e][..counts[e]].iter().any(|&h| self.cell_conflicts(h, c))
@@ -542,6 +613,33 @@ mod tests {
                 g.insert(Candidate {
                     pos: Vec3::new(x - 0.99 * r, cands.last().unwrap().pos.y, 0.0),
                     normal: if k % 2 == 0 { Vec3::Z } else { -Vec3::Z },
+                });
+            }
+            // Pairs a hair under r apart across an edge or a corner of the cells: the point
+            // just inside one cell, the candidate in a diagonal neighbour, the conflict
+            // found only if that neighbour is searched (the cull must not drop it).
+            for k in 0..3000 {
+                let corner = Vec3::new(
+                    (rng.next_f32() * 40.0).floor() * cell,
+                    (rng.next_f32() * 40.0).floor() * cell,
+                    (rng.next_f32() * 4.0).floor() * cell,
+                );
+                let sign = |rng: &mut Rng| if rng.next_f32() < 0.5 { -1.0 } else { 1.0 };
+                let mut dir = Vec3::new(sign(&mut rng), sign(&mut rng), sign(&mut rng));
+                if k % 2 == 0 {
+                    dir.z = 0.0; // across an edge
+                }
+                let dir =
+                    (dir * Vec3::new(0.5 + rng.next_f32(), 0.5 + rng.next_f32(), 0.5 + rng.next_f32())).normalize();
+                let q = corner - dir * (r * 0.5 * rng.next_f32());
+                let d = r * (1.0 - 1e-5 * [0.5, 2.0, 10.0, 100.0][k % 4]);
+                g.insert(Candidate {
+                    pos: q,
+                    normal: Vec3::Z,
+                });
+                cands.push(Candidate {
+                    pos: q + dir * d,
+                    normal: Vec3::Z,
                 });
             }
             g.insert_all(&pts);
