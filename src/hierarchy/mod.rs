@@ -43,27 +43,35 @@ use weight::{clip_ok, node_weight};
 /// Where one is, the triangles whose bounds meet the rays' cube, gathered in that one
 /// walk, are what the 8 rays are tested against ([`Scene::intersect_among`]): one BVH
 /// walk per node, not one per ray.
+///
+/// One node's (computing every triangle's world normal first: for many,
+/// [`Hierarchy::arrange`] or [`cpu_clips`]).
 pub fn node_clip(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
-    node_clip_in(scene, h, i, &mut Vec::with_capacity(NEAR_CAP + 1))
+    node_clip_in(
+        scene,
+        h,
+        i,
+        &world_normals(scene),
+        &mut Vec::with_capacity(NEAR_CAP + 1),
+    )
 }
 
-/// [`node_clip`] with `near` as scratch for the gathered triangles (one per thread in
-/// [`cpu_clips`] and [`Hierarchy::arrange`], not one allocation per node).
-fn node_clip_in(scene: &Scene, h: &Hierarchy, i: usize, near: &mut Vec<(u32, u32)>) -> weight::Clip {
+/// [`node_clip`] with the triangles' world normals ([`world_normals`]) and `near` as
+/// scratch for the gathered triangles (one per thread in [`cpu_clips`] and
+/// [`Hierarchy::arrange`], not one allocation per node).
+fn node_clip_in(scene: &Scene, h: &Hierarchy, i: usize, normals: &[Vec3], near: &mut Vec<(u32, u32)>) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
     let (origin, n, h_w) = clip_ray_origin(scene, nd, h_obj);
     let all = scene.triangles_near(origin, clip_reach(origin, h_w), NEAR_CAP, near);
-    let wall = near
-        .iter()
-        .any(|&(o, t)| world_normal(scene, o as usize, t).dot(n).abs() < 0.5);
+    let wall = near.iter().any(|&(_, t)| normals[t as usize].dot(n).abs() < 0.5);
     if !all {
         // Many triangles (a coarse node's wide support): the rays traced, where they can
         // meet a wall (one among those gathered, or else one the whole query finds).
         if !wall && !may_meet_wall(scene, nd, h_obj) {
             return encode_clip(Vec::new());
         }
-        return node_clip_traced(scene, h, i);
+        return clip_traced(scene, h, i, normals);
     }
     if !wall {
         return encode_clip(Vec::new());
@@ -79,16 +87,23 @@ fn node_clip_in(scene: &Scene, h: &Hierarchy, i: usize, near: &mut Vec<(u32, u32
             .map(|v| (xform_point(m, Vec3::from(v)).as_dvec3() - origin.as_dvec3()).dot(n.as_dvec3()));
         s.iter().any(|&x| x >= -margin) && s.iter().any(|&x| x <= margin)
     });
-    let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect_among(near, ray, tmax));
+    let mut planes = walls_across_support(scene, nd, h_obj, normals, |ray, tmax| {
+        scene.intersect_among(near, ray, tmax)
+    });
     widen_to_neighbour_sectors(&mut planes);
     encode_clip(planes)
 }
 
 /// [`node_clip`] with every ray traced (what the shortcut must reproduce; tests).
 pub fn node_clip_traced(scene: &Scene, h: &Hierarchy, i: usize) -> weight::Clip {
+    clip_traced(scene, h, i, &world_normals(scene))
+}
+
+/// [`node_clip_traced`] with the triangles' world normals.
+fn clip_traced(scene: &Scene, h: &Hierarchy, i: usize, normals: &[Vec3]) -> weight::Clip {
     let nd = &h.nodes[i];
     let h_obj = h.support(nd.object as usize, nd.level as usize);
-    let mut planes = walls_across_support(scene, nd, h_obj, |ray, tmax| scene.intersect(ray, tmax));
+    let mut planes = walls_across_support(scene, nd, h_obj, normals, |ray, tmax| scene.intersect(ray, tmax));
     widen_to_neighbour_sectors(&mut planes);
     encode_clip(planes)
 }
@@ -128,10 +143,23 @@ pub fn may_meet_wall(scene: &Scene, nd: &Node, h_obj: f32) -> bool {
     })
 }
 
-/// The world-space unit normal of global triangle `t` of object `o`, as the clip rays
-/// compute it for the surface they hit.
-fn world_normal(scene: &Scene, o: usize, t: u32) -> Vec3 {
-    world_normal_of(scene, o, &scene.tris[t as usize])
+/// Every triangle's world-space unit normal (by global index), as the clip rays compute
+/// it for the surface they hit: once per arrangement, not once per node and triangle
+/// near it.
+pub fn world_normals(scene: &Scene) -> Vec<Vec3> {
+    let mut out = vec![Vec3::ZERO; scene.tris.len()];
+    for (o, obj) in scene.objects.iter().enumerate() {
+        let r = obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize;
+        out[r.clone()]
+            .par_chunks_mut(1 << 14)
+            .zip(scene.tris[r].par_chunks(1 << 14))
+            .for_each(|(n, tris)| {
+                for (n, tri) in n.iter_mut().zip(tris) {
+                    *n = world_normal_of(scene, o, tri);
+                }
+            });
+    }
+    out
 }
 
 fn world_normal_of(scene: &Scene, o: usize, tri: &crate::layout::Tri) -> Vec3 {
@@ -198,12 +226,13 @@ impl ClipSelection {
 /// in node order (after a move; a whole arrangement writes every node's clip in place,
 /// [`Hierarchy::arrange`]).
 pub fn cpu_clips(scene: &Scene, h: &Hierarchy, sel: &ClipSelection) -> Vec<(usize, weight::Clip)> {
+    let normals = world_normals(scene);
     (0..h.nodes.len())
         .into_par_iter()
         .filter(|&i| sel.contains(scene, h, i))
         .map_init(
             || Vec::with_capacity(NEAR_CAP + 1),
-            |near, i| (i, node_clip_in(scene, h, i, near)),
+            |near, i| (i, node_clip_in(scene, h, i, &normals, near)),
         )
         .collect()
 }
@@ -216,7 +245,13 @@ type Plane = ([i16; 2], f32, u8);
 /// The planes the 8 tangent rays of node `nd` (support `h_obj`, object space) meet, with
 /// `hit(ray, tmax)` the closest hit of a world-space ray ([`Scene::intersect`] or what
 /// gives the same).
-fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32, hit: impl Fn(&Ray, f32) -> Option<Hit>) -> Vec<Plane> {
+fn walls_across_support(
+    scene: &Scene,
+    nd: &Node,
+    h_obj: f32,
+    normals: &[Vec3],
+    hit: impl Fn(&Ray, f32) -> Option<Hit>,
+) -> Vec<Plane> {
     let obj = &scene.objects[nd.object as usize];
     let n_obj = Vec3::from(nd.normal);
     let x_obj = Vec3::from(nd.pos);
@@ -230,7 +265,7 @@ fn walls_across_support(scene: &Scene, nd: &Node, h_obj: f32, hit: impl Fn(&Ray,
         let Some(hit) = hit(&Ray { o: origin, d }, 1.1 * h) else {
             continue;
         };
-        let hn = world_normal(scene, hit.object as usize, hit.tri);
+        let hn = normals[hit.tri as usize];
         if hn.dot(n).abs() >= 0.5 {
             continue;
         }
@@ -948,12 +983,13 @@ impl Hierarchy {
         let t = Instant::now();
         progress.stage("support clipping");
         self.clips = if p.support_clip {
+            let normals = world_normals(scene);
             // Every node's, written in place in parallel (no list of pairs to scatter).
             (0..self.nodes.len())
                 .into_par_iter()
                 .map_init(
                     || Vec::with_capacity(NEAR_CAP + 1),
-                    |near, i| node_clip_in(scene, self, i, near),
+                    |near, i| node_clip_in(scene, self, i, &normals, near),
                 )
                 .collect()
         } else {
@@ -1175,7 +1211,7 @@ impl Hierarchy {
         // Groups of up to GROUP consecutive children of one (object, level): neighbours in
         // kd order, so one kd walk over their bounds serves them all. In node order, so
         // that their lists concatenate into the CSR (level 0 has none).
-        const GROUP: usize = 8;
+        const GROUP: usize = 16;
         let mut groups = Vec::new();
         for ol in &self.objects {
             for l in 1..m {
