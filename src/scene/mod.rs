@@ -126,6 +126,20 @@ pub struct Scene {
     pub limits: Limits,
 }
 
+/// A surface point reached by a ray, in its object's space: what a sender read needs
+/// ([`Scene::local_surface`]; [`Surface`] adds the world-space point and normal).
+#[derive(Clone, Copy, Debug)]
+pub struct LocalSurface {
+    pub object: u32,
+    pub tri: u32,
+    /// Object space, normal facing the ray's origin.
+    pub p_obj: Vec3,
+    pub n_obj: Vec3,
+    /// The ray met the triangle's back (the side against its winding normal).
+    pub back: bool,
+    pub albedo: Vec3,
+}
+
 /// A surface point reached by a ray.
 #[derive(Clone, Copy, Debug)]
 pub struct Surface {
@@ -140,6 +154,20 @@ pub struct Surface {
     pub p: Vec3,
     pub n: Vec3,
     pub albedo: Vec3,
+}
+
+impl Surface {
+    /// The object-space part.
+    pub fn local(&self) -> LocalSurface {
+        LocalSurface {
+            object: self.object,
+            tri: self.tri,
+            p_obj: self.p_obj,
+            n_obj: self.n_obj,
+            back: self.back,
+            albedo: self.albedo,
+        }
+    }
 }
 
 /// The object-space cube `[lo, hi]` of object `o` that the world-space cube of half-width
@@ -563,6 +591,35 @@ impl Scene {
 
     /// The surface at a hit, its normal turned towards the ray's origin.
     pub fn surface(&self, hit: &Hit, ray_d: Vec3) -> Surface {
+        let l = self.local_surface(hit, ray_d);
+        let (p, n) = self.world_of(&l);
+        Surface {
+            object: l.object,
+            tri: l.tri,
+            p_obj: l.p_obj,
+            n_obj: l.n_obj,
+            back: l.back,
+            p,
+            n,
+            albedo: l.albedo,
+        }
+    }
+
+    /// The world-space point and unit normal of a [`LocalSurface`] (those of
+    /// [`Scene::surface`]).
+    #[inline]
+    pub fn world_of(&self, l: &LocalSurface) -> (Vec3, Vec3) {
+        let o = &self.objects[l.object as usize];
+        (
+            xform_point(&o.to_world, l.p_obj),
+            xform_vector(&o.to_world, l.n_obj).normalize(),
+        )
+    }
+
+    /// [`Scene::surface`] in the object's space alone (the gathering rays' sender reads:
+    /// no world-space point and normal to transform and normalise).
+    #[inline]
+    pub fn local_surface(&self, hit: &Hit, ray_d: Vec3) -> LocalSurface {
         let o = &self.objects[hit.object as usize];
         let tri = &self.tris[hit.tri as usize];
         let p_obj = tri_point(tri, hit.b1, hit.b2);
@@ -571,14 +628,12 @@ impl Scene {
         if back {
             n_obj = -n_obj;
         }
-        Surface {
+        LocalSurface {
             object: hit.object,
             tri: hit.tri,
             p_obj,
             n_obj,
             back,
-            p: xform_point(&o.to_world, p_obj),
-            n: xform_vector(&o.to_world, n_obj).normalize(),
             albedo: self.albedo(hit.tri, hit.b1, hit.b2),
         }
     }

@@ -125,7 +125,8 @@ fn trace_integral(
         let Some(hit) = scene.intersect(&ray, f32::INFINITY) else {
             continue;
         };
-        let s = scene.surface(&hit, d);
+        // The world-space point and normal only where the direct light is read there.
+        let s = scene.local_surface(&hit, d);
         let mut linked = None;
         if let Some(rec) = record.as_deref_mut() {
             // A side without nodes reads nothing (`Hierarchy::side_has_nodes`).
@@ -144,7 +145,8 @@ fn trace_integral(
             linked = Some(node);
         }
         let e = if exact_direct {
-            scene.direct_one_seeded(s.p, s.n, crate::scene::emitter::hit_seed(j as u32, r as u32))
+            let (x, n) = scene.world_of(&s);
+            scene.direct_one_seeded(x, n, crate::scene::emitter::hit_seed(j as u32, r as u32))
         } else if let Some(node) = linked {
             node.map_or(Vec3::ZERO, |i| unshot[i].xyz())
         } else {

@@ -92,7 +92,7 @@ impl Sender {
     /// The value at a hit: nothing on a triangle side without nodes
     /// (`Hierarchy::side_has_nodes`), else [`Sender::read`] at its object-space point.
     #[inline]
-    pub fn read_hit(&self, h: &Hierarchy, s: &crate::scene::Surface, values: &[Vec4]) -> Vec3 {
+    pub fn read_hit(&self, h: &Hierarchy, s: &crate::scene::LocalSurface, values: &[Vec4]) -> Vec3 {
         if h.side_has_nodes(s.tri, s.back) {
             self.read(h, s.object as usize, s.p_obj, s.n_obj, values)
         } else {
