@@ -142,7 +142,7 @@ fn prefetch<T>(x: &T) {
     let _ = x;
 }
 
-/// Which cells about a candidate's own [`Grid::open_in_cells`] looks in.
+/// Which of the cells about a candidate's own cell [`Grid::open_in_cells`] looks in.
 #[derive(Clone, Copy)]
 enum Neighbours {
     /// Those across a face of the own cell.
