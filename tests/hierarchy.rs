@@ -261,8 +261,36 @@ fn links_give_the_traced_answer() {
             linked == traced,
             "link_memory {mib}: indirect differs from the traced solve"
         );
-        common::check_link_counts(&l, mib, full, 64);
+        // The box has no texture: every node keeps its links without albedos.
+        common::check_link_counts(&l, mib, full, 64, (8, 8));
     }
+    // A textured floor: the wall's nodes see it and keep their albedos (16 bytes a link),
+    // the floor's see only the wall (8): the same answer as tracing either way.
+    let dir = common::tmpdir();
+    let corner = common::gltf::textured_corner(
+        dir.path(),
+        "levels = 4\nsender_level = 3\ncoarsest = 40\nrays = 64\nstop_threshold = 1e-3\n",
+    );
+    let solve_corner = |link_memory: u32| {
+        let (s, p) = common::load(&corner, &[("link_memory", &link_memory.to_string())]);
+        let (_, sol) = common::solve_cpu(&s, &p);
+        (sol.values.indirect, sol.stats)
+    };
+    let (traced, _) = solve_corner(0);
+    let (linked, st) = solve_corner(2048);
+    assert!(
+        linked == traced,
+        "textured corner: indirect differs from the traced solve"
+    );
+    let l = st.links.expect("links kept");
+    assert!(
+        l.integrals_linked > 0,
+        "textured corner: links served no integral: {l:?}"
+    );
+    assert!(
+        l.nodes * 64 * 8 < l.bytes && l.bytes < l.nodes * 64 * 16,
+        "both kinds of links kept: {l:?}"
+    );
     // A second solve on the same backend (a benchmark's warm run) records its own links
     // and counts: the same values and the same statistics as a cold one.
     let (s, mut p) = cornell(4);

@@ -638,6 +638,14 @@ impl Scene {
         }
     }
 
+    /// The material of global triangle `tri` if its albedo is that material's `kd`
+    /// everywhere on it (no texture): what [`Scene::albedo`] returns there.
+    #[inline]
+    pub fn plain_material(&self, tri: u32) -> Option<u32> {
+        let m = self.tris[tri as usize].material;
+        (self.materials[m as usize].texture == NONE).then_some(m)
+    }
+
     /// Albedo `ρ` at barycentrics `(b1, b2)` of global triangle `tri`.
     pub fn albedo(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
         let m = &self.materials[self.tris[tri as usize].material as usize];

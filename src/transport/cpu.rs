@@ -5,7 +5,7 @@
 use glam::{Vec2, Vec3, Vec4, Vec4Swizzles};
 use rayon::prelude::*;
 
-use super::links::{self, Link, LinkStats, Links};
+use super::links::{self, Kept, Link, LinkStats, Links};
 use super::{reconstruct, Backend, Energy, NodeValues, Refined};
 use crate::error::Result;
 use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
@@ -139,6 +139,7 @@ fn trace_integral(
                 Some(i) => Link {
                     sender: i as u32,
                     albedo: s.albedo,
+                    material: scene.plain_material(s.tri).unwrap_or(links::TEXTURED),
                 },
                 None => Link::NONE,
             };
@@ -180,6 +181,8 @@ pub struct CpuBackend<'a> {
     h: &'a Hierarchy,
     p: SolverParams,
     halton: Vec<Vec2>,
+    /// Each material's `kd`: the albedo a plain link reads (`links::PlainLink`).
+    kd: Vec<Vec3>,
     direct: Vec<Vec4>,
     unshot: Vec<Vec4>,
     next: Vec<Vec4>,
@@ -261,6 +264,7 @@ impl<'a> CpuBackend<'a> {
             h,
             p: p.clone(),
             halton: halton_table(p.rays),
+            kd: scene.materials.iter().map(|m| Vec3::from(m.kd)).collect(),
             direct: vec![Vec4::ZERO; n],
             unshot: vec![Vec4::ZERO; n],
             next: vec![Vec4::ZERO; n],
@@ -421,19 +425,21 @@ impl Backend for CpuBackend<'_> {
             None => vec![false; list.len()],
         };
         let links = self.links.as_ref().filter(|_| !exact);
-        let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
+        let (scene, h, p, halton, unshot, kd) = (self.scene, self.h, &self.p, &self.halton, &self.unshot, &self.kd);
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
-        let results: Vec<(Gathered, Option<Box<[Link]>>)> = list
+        let results: Vec<(Gathered, Option<Kept>)> = list
             .par_iter()
             .zip(&record)
-            .map(|(&j, &rec)| {
+            .map_init(Vec::new, |buf: &mut Vec<Link>, (&j, &rec)| {
                 let j = j as usize;
                 let out = match links.and_then(|l| l.of(j)) {
-                    Some(l) => (links::gather(l, unshot), None),
+                    Some(l) => (links::gather(l, unshot, kd), None),
                     None if rec => {
-                        let mut buf = vec![Link::NONE; halton.len()].into_boxed_slice();
-                        let g = trace_integral(scene, h, p, halton, unshot, j, exact, Some(&mut buf));
-                        (g, Some(buf))
+                        // A scratch record per thread; the node keeps it in its own form.
+                        buf.clear();
+                        buf.resize(halton.len(), Link::NONE);
+                        let g = trace_integral(scene, h, p, halton, unshot, j, exact, Some(buf));
+                        (g, Some(Kept::of(buf)))
                     }
                     None => (gather_integral(scene, h, p, halton, unshot, j, exact), None),
                 };

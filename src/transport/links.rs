@@ -26,13 +26,20 @@ use super::cpu::{Estimator, Gathered};
 /// A link's sender when the ray escaped or its hit reconstructs to no value.
 pub const NO_SENDER: u32 = u32::MAX;
 
-/// One gathering ray's hit as the later bounces read it.
+/// `Link::material` of a hit whose albedo varies over its triangle (a texture).
+pub const TEXTURED: u32 = u32::MAX;
+
+/// One gathering ray's hit as the later bounces read it, as the traced integral records
+/// it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Link {
     /// Global index of the node the hit reads (`NO_SENDER`: adds nothing).
     pub sender: u32,
     /// Albedo at the hit.
     pub albedo: Vec3,
+    /// The hit triangle's material where the albedo is that material's `kd` everywhere on
+    /// it (no texture), else `TEXTURED`.
+    pub material: u32,
 }
 
 impl Link {
@@ -40,11 +47,81 @@ impl Link {
     pub const NONE: Link = Link {
         sender: NO_SENDER,
         albedo: Vec3::ZERO,
+        material: TEXTURED,
     };
 }
 
-/// Bytes one link takes.
-pub const LINK_BYTES: u64 = std::mem::size_of::<Link>() as u64;
+/// A kept link whose albedo is its material's `kd` (8 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlainLink {
+    pub sender: u32,
+    pub material: u32,
+}
+
+/// A kept link with its albedo (16 bytes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FullLink {
+    pub sender: u32,
+    pub albedo: Vec3,
+}
+
+/// Bytes one kept link takes at most (a [`FullLink`]): what room is planned by. A node
+/// whose every hit is on an untextured material keeps [`PlainLink`]s, half that.
+pub const LINK_BYTES: u64 = std::mem::size_of::<FullLink>() as u64;
+
+/// A node's kept links ([`Kept::of`]).
+enum Held {
+    Plain(Box<[PlainLink]>),
+    Full(Box<[FullLink]>),
+}
+
+/// A traced integral's links as a node keeps them: without the albedos where every hit
+/// that reads a sender is on an untextured material (its `kd` is the albedo). Made where
+/// the integral was traced (in parallel), then [`Links::store`]d.
+pub struct Kept(Held);
+
+impl Kept {
+    pub fn of(links: &[Link]) -> Kept {
+        let plain = links.iter().all(|l| l.sender == NO_SENDER || l.material != TEXTURED);
+        Kept(if plain {
+            Held::Plain(
+                links
+                    .iter()
+                    .map(|l| PlainLink {
+                        sender: l.sender,
+                        material: l.material,
+                    })
+                    .collect(),
+            )
+        } else {
+            Held::Full(
+                links
+                    .iter()
+                    .map(|l| FullLink {
+                        sender: l.sender,
+                        albedo: l.albedo,
+                    })
+                    .collect(),
+            )
+        })
+    }
+}
+
+impl Held {
+    fn bytes(&self) -> u64 {
+        match self {
+            Held::Plain(l) => std::mem::size_of_val(&**l) as u64,
+            Held::Full(l) => std::mem::size_of_val(&**l) as u64,
+        }
+    }
+}
+
+/// A node's links, as [`gather`] reads them.
+#[derive(Clone, Copy)]
+pub enum NodeLinks<'a> {
+    Plain(&'a [PlainLink]),
+    Full(&'a [FullLink]),
+}
 
 /// What the links did in a solve (`stats.json`, `solve.links`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
@@ -67,10 +144,11 @@ pub struct LinkStats {
 /// The links of a solve, per node.
 pub struct Links {
     rays: usize,
-    per_node: Vec<Option<Box<[Link]>>>,
+    per_node: Vec<Option<Held>>,
     max_nodes: u64,
-    /// Nodes holding links (across solves that keep them).
+    /// Nodes holding links (across solves that keep them), and those links' bytes.
     held: u64,
+    held_bytes: u64,
     pub stats: LinkStats,
 }
 
@@ -83,6 +161,7 @@ impl Links {
             per_node: (0..nodes).map(|_| None).collect(),
             max_nodes: capacity_bytes / per,
             held: 0,
+            held_bytes: 0,
             stats: LinkStats {
                 capacity_bytes,
                 ..Default::default()
@@ -94,6 +173,7 @@ impl Links {
     pub fn clear(&mut self) {
         self.per_node.iter_mut().for_each(|l| *l = None);
         self.held = 0;
+        self.held_bytes = 0;
         self.new_solve();
     }
 
@@ -104,7 +184,7 @@ impl Links {
         self.stats = LinkStats {
             capacity_bytes: self.stats.capacity_bytes,
             nodes: self.held,
-            bytes: self.held * self.rays as u64 * LINK_BYTES,
+            bytes: self.held_bytes,
             ..Default::default()
         };
     }
@@ -117,8 +197,11 @@ impl Links {
 
     /// The links of node `j`, if it has them.
     #[inline]
-    pub fn of(&self, j: usize) -> Option<&[Link]> {
-        self.per_node[j].as_deref()
+    pub fn of(&self, j: usize) -> Option<NodeLinks<'_>> {
+        self.per_node[j].as_ref().map(|h| match h {
+            Held::Plain(l) => NodeLinks::Plain(l),
+            Held::Full(l) => NodeLinks::Full(l),
+        })
     }
 
     /// For each node of `list` in order: whether it records links when traced (it has
@@ -138,7 +221,6 @@ impl Links {
                 } else if self.held < self.max_nodes {
                     self.held += 1;
                     self.stats.nodes = self.held;
-                    self.stats.bytes = self.held * self.rays as u64 * LINK_BYTES;
                     true
                 } else {
                     self.stats.integrals_traced_full += 1;
@@ -149,21 +231,46 @@ impl Links {
     }
 
     /// Keeps the links recorded for node `j`.
-    pub fn store(&mut self, j: usize, links: Box<[Link]>) {
-        debug_assert_eq!(links.len(), self.rays);
-        self.per_node[j] = Some(links);
+    pub fn store(&mut self, j: usize, kept: Kept) {
+        let held = kept.0;
+        debug_assert_eq!(
+            match &held {
+                Held::Plain(l) => l.len(),
+                Held::Full(l) => l.len(),
+            },
+            self.rays
+        );
+        self.held_bytes += held.bytes();
+        if let Some(old) = self.per_node[j].replace(held) {
+            self.held_bytes -= old.bytes();
+        }
+        self.stats.bytes = self.held_bytes;
     }
 }
 
 /// A gathering integral over recorded links: `(1/N) Σ ρ_r U[sender_r]`, the same sum
-/// `cpu::gather_integral` makes by tracing.
+/// `cpu::gather_integral` makes by tracing (a plain link's albedo is `kd[material]`, the
+/// value the traced hit read).
 #[inline]
-pub fn gather(links: &[Link], unshot: &[Vec4]) -> Gathered {
+pub fn gather(links: NodeLinks, unshot: &[Vec4], kd: &[Vec3]) -> Gathered {
     let mut est = Estimator::default();
-    for l in links {
-        if l.sender != NO_SENDER {
-            est.add(l.albedo * unshot[l.sender as usize].xyz());
+    let n = match links {
+        NodeLinks::Plain(ls) => {
+            for l in ls {
+                if l.sender != NO_SENDER {
+                    est.add(kd[l.material as usize] * unshot[l.sender as usize].xyz());
+                }
+            }
+            ls.len()
         }
-    }
-    est.finish(links.len())
+        NodeLinks::Full(ls) => {
+            for l in ls {
+                if l.sender != NO_SENDER {
+                    est.add(l.albedo * unshot[l.sender as usize].xyz());
+                }
+            }
+            ls.len()
+        }
+    };
+    est.finish(n)
 }
