@@ -6,7 +6,9 @@
 //! same too: the first kd-tree leaf that passes the normal and clip tests depends on the
 //! geometry, not on the values (`reconstruct::approx_node`). So the first time a node is
 //! gathered with the sender read, each of its rays keeps a link, the sender node and the
-//! albedo at the hit, and every later gather of that node is `(1/N) Σ ρ_r U[sender_r]`
+//! albedo at the hit (or, where all the node's hits are on untextured materials, the
+//! material, whose `kd` is that albedo: half the bytes), and every later gather of that
+//! node is `(1/N) Σ ρ_r U[sender_r]`
 //! over its links: no ray, no search, and bit for bit the sum the traced integral makes
 //! (the same products added in the same order; a miss or a hit without a value adds
 //! nothing either way).
