@@ -159,7 +159,7 @@ fn kernels_of_a_gather_match_cpu() {
                             shadow_differs += !close(gs[k].xyz(), want, 1e-2, 1e-4 * direct_scale) as usize;
                             continue;
                         }
-                        let want = sf.albedo * sender.read_hit(&h, &sf.local(), &unshot_cpu);
+                        let want = sf.albedo * sender.read_hit(&h, &sf, &unshot_cpu);
                         assert!(
                             // The delta hierarchy's sum cancels: its error scales with the
                             // direct light, not with the (possibly tiny) sum.

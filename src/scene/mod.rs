@@ -140,33 +140,22 @@ pub struct LocalSurface {
     pub albedo: Vec3,
 }
 
-/// A surface point reached by a ray.
+/// A surface point reached by a ray: its object-space part (the fields of
+/// [`LocalSurface`], read through it) and the world-space point and normal.
 #[derive(Clone, Copy, Debug)]
 pub struct Surface {
-    pub object: u32,
-    pub tri: u32,
-    /// Object space, normal facing the ray's origin.
-    pub p_obj: Vec3,
-    pub n_obj: Vec3,
-    /// The ray met the triangle's back (the side against its winding normal).
-    pub back: bool,
+    pub local: LocalSurface,
     /// World space.
     pub p: Vec3,
     pub n: Vec3,
-    pub albedo: Vec3,
 }
 
-impl Surface {
-    /// The object-space part.
-    pub fn local(&self) -> LocalSurface {
-        LocalSurface {
-            object: self.object,
-            tri: self.tri,
-            p_obj: self.p_obj,
-            n_obj: self.n_obj,
-            back: self.back,
-            albedo: self.albedo,
-        }
+impl std::ops::Deref for Surface {
+    type Target = LocalSurface;
+
+    #[inline]
+    fn deref(&self) -> &LocalSurface {
+        &self.local
     }
 }
 
@@ -591,18 +580,9 @@ impl Scene {
 
     /// The surface at a hit, its normal turned towards the ray's origin.
     pub fn surface(&self, hit: &Hit, ray_d: Vec3) -> Surface {
-        let l = self.local_surface(hit, ray_d);
-        let (p, n) = self.world_of(&l);
-        Surface {
-            object: l.object,
-            tri: l.tri,
-            p_obj: l.p_obj,
-            n_obj: l.n_obj,
-            back: l.back,
-            p,
-            n,
-            albedo: l.albedo,
-        }
+        let local = self.local_surface(hit, ray_d);
+        let (p, n) = self.world_of(&local);
+        Surface { local, p, n }
     }
 
     /// The world-space point and unit normal of a [`LocalSurface`] (those of
