@@ -618,6 +618,12 @@ impl Scene {
         }
     }
 
+    /// Material `m`'s `kd`: the albedo everywhere on an untextured triangle of it.
+    #[inline]
+    pub fn kd(&self, m: u32) -> Vec3 {
+        Vec3::from(self.materials[m as usize].kd)
+    }
+
     /// The material of global triangle `tri` if its albedo is that material's `kd`
     /// everywhere on it (no texture): what [`Scene::albedo`] returns there.
     #[inline]
@@ -628,8 +634,8 @@ impl Scene {
 
     /// Albedo `ρ` at barycentrics `(b1, b2)` of global triangle `tri`.
     pub fn albedo(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
-        let m = &self.materials[self.tris[tri as usize].material as usize];
-        let kd = Vec3::from(m.kd);
+        let mi = self.tris[tri as usize].material;
+        let (m, kd) = (&self.materials[mi as usize], self.kd(mi));
         if m.texture == NONE {
             return kd;
         }

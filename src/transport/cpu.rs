@@ -181,8 +181,6 @@ pub struct CpuBackend<'a> {
     h: &'a Hierarchy,
     p: SolverParams,
     halton: Vec<Vec2>,
-    /// Each material's `kd`: the albedo a plain link reads (`links::PlainLink`).
-    kd: Vec<Vec3>,
     direct: Vec<Vec4>,
     unshot: Vec<Vec4>,
     next: Vec<Vec4>,
@@ -264,7 +262,6 @@ impl<'a> CpuBackend<'a> {
             h,
             p: p.clone(),
             halton: halton_table(p.rays),
-            kd: scene.materials.iter().map(|m| Vec3::from(m.kd)).collect(),
             direct: vec![Vec4::ZERO; n],
             unshot: vec![Vec4::ZERO; n],
             next: vec![Vec4::ZERO; n],
@@ -425,7 +422,7 @@ impl Backend for CpuBackend<'_> {
             None => vec![false; list.len()],
         };
         let links = self.links.as_ref().filter(|_| !exact);
-        let (scene, h, p, halton, unshot, kd) = (self.scene, self.h, &self.p, &self.halton, &self.unshot, &self.kd);
+        let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
         let results: Vec<(Gathered, Option<Kept>)> = list
             .par_iter()
@@ -433,7 +430,7 @@ impl Backend for CpuBackend<'_> {
             .map_init(Vec::new, |buf: &mut Vec<Link>, (&j, &rec)| {
                 let j = j as usize;
                 let out = match links.and_then(|l| l.of(j)) {
-                    Some(l) => (links::gather(l, unshot, kd), None),
+                    Some(l) => (links::gather(l, unshot, scene), None),
                     None if rec => {
                         // A scratch record per thread; the node keeps it in its own form.
                         buf.clear();

@@ -251,16 +251,16 @@ impl Links {
 }
 
 /// A gathering integral over recorded links: `(1/N) Σ ρ_r U[sender_r]`, the same sum
-/// `cpu::gather_integral` makes by tracing (a plain link's albedo is `kd[material]`, the
-/// value the traced hit read).
+/// `cpu::gather_integral` makes by tracing (a plain link's albedo is its material's
+/// `kd`, [`Scene::kd`](crate::scene::Scene::kd), the value the traced hit read).
 #[inline]
-pub fn gather(links: NodeLinks, unshot: &[Vec4], kd: &[Vec3]) -> Gathered {
+pub fn gather(links: NodeLinks, unshot: &[Vec4], scene: &crate::scene::Scene) -> Gathered {
     let mut est = Estimator::default();
     let n = match links {
         NodeLinks::Plain(ls) => {
             for l in ls {
                 if l.sender != NO_SENDER {
-                    est.add(kd[l.material as usize] * unshot[l.sender as usize].xyz());
+                    est.add(scene.kd(l.material) * unshot[l.sender as usize].xyz());
                 }
             }
             ls.len()
