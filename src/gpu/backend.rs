@@ -97,6 +97,8 @@ pub struct GpuBackend<'a> {
     link_base: Option<[u32; LINK_COUNTERS as usize]>,
     /// A solve ran to its end (its links are whole).
     solved: bool,
+    /// Bounces this solve has ended (`Schedule::linked_levels` reads it).
+    bounces_done: u32,
     pub report: GpuReport,
 }
 
@@ -295,6 +297,7 @@ impl<'a> GpuBackend<'a> {
             keep_links: false,
             link_base: r.link_base,
             solved: false,
+            bounces_done: 0,
             report: r.report,
         })
     }
@@ -309,9 +312,27 @@ impl<'a> GpuBackend<'a> {
         self.keep_links
     }
 
+    /// The levels whose nodes all hold links now: after a solve's first bounce, levels
+    /// 0 and 1 (those of them that are gathered), when there are slots for all their
+    /// nodes. Every bounce gathers every node of those levels, and the first bounce's
+    /// first slot requests are theirs (a solve starts with no links, or keeps a solve's
+    /// whose first bounce linked the same nodes), so each got one and recorded its links
+    /// (the exact first bounce records them too).
+    fn linked_levels(&self) -> u32 {
+        let levels = self.p.gather_levels().min(2);
+        let nodes = self.h.level_start[levels as usize] as u64;
+        let links = self.p.variant == Variant::Approx && self.res.state.link_capacity > 0;
+        if links && self.bounces_done >= 1 && nodes <= self.res.state.link_capacity as u64 {
+            levels
+        } else {
+            0
+        }
+    }
+
     /// Records stages of the schedule into one command buffer, submits it, waits, and
     /// collects the timestamps.
     fn submit(&mut self, f: impl FnOnce(&Schedule, &mut Recorder)) -> Result<()> {
+        let linked_levels = self.linked_levels();
         let schedule = Schedule {
             k: &self.k,
             res: &self.res,
@@ -321,6 +342,7 @@ impl<'a> GpuBackend<'a> {
             delta: self.p.variant.is_delta(),
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
             reset_links: !self.keep_links,
+            linked_levels,
         };
         super::kernels::submit(&self.ctx, &mut self.prof, self.res.globals.address, |rec| {
             f(&schedule, rec)
@@ -391,6 +413,7 @@ impl Backend for GpuBackend<'_> {
     fn direct(&mut self) -> Result<Vec<u32>> {
         // A solve starts here: its kernel times start from zero.
         self.prof.clear();
+        self.bounces_done = 0;
         self.submit(|s, rec| s.direct(rec))?;
         if self.sampled_sources > 0 {
             // Each node's relative standard error (-1: unlit).
@@ -445,6 +468,7 @@ impl Backend for GpuBackend<'_> {
 
     fn end_bounce(&mut self) -> Result<Energy> {
         self.submit(|s, rec| s.end_bounce(rec))?;
+        self.bounces_done += 1;
         let v: Vec<f32> = self.res.state.energy.download(0, ENERGY_DIRECT as usize + 1)?;
         Ok(Energy {
             unshot: v[ENERGY_UNSHOT as usize] as f64,
@@ -457,6 +481,7 @@ impl Backend for GpuBackend<'_> {
     fn bounce_fused(&mut self, exact_direct: bool, sparse: u32) -> Result<Option<FusedBounce>> {
         let g = self.p.gather_levels();
         self.submit(|s, rec| s.bounce(rec, g, exact_direct, sparse))?;
+        self.bounces_done += 1;
         let bytes = self.res.readback.mapped()?;
         let c: Vec<u32> = bytemuck::pod_collect_to_vec(&bytes[..LEVEL_COUNTER_BYTES as usize]);
         let e: Vec<f32> =

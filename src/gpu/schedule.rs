@@ -46,6 +46,9 @@ pub struct Schedule<'a> {
     pub max_groups_x: u32,
     /// A solve drops the links of the last one (else it reads them: a relighting frame).
     pub reset_links: bool,
+    /// The levels `0..linked_levels` whose nodes all hold links (0: none known): their
+    /// gathers outside the exact first bounce run kernel `linked` and `reduce` alone.
+    pub linked_levels: u32,
 }
 
 impl Schedule<'_> {
@@ -102,6 +105,8 @@ impl Schedule<'_> {
             count_slot: NONE,
             exact_direct: exact_direct as u32,
         };
+        // Every node of the level reads its links: no ray, no search (`linked.comp`).
+        let linked = active == Active::Level && l < self.linked_levels && !exact_direct;
         match active {
             Active::Level | Active::Listed(_) => {
                 let count = match active {
@@ -123,6 +128,7 @@ impl Schedule<'_> {
                             rays: self.rays,
                             grid: Grid::Host,
                         },
+                        linked,
                     );
                     first += n;
                 }
@@ -146,19 +152,29 @@ impl Schedule<'_> {
                             rays: self.rays,
                             grid,
                         },
+                        false,
                     );
                 }
             }
         }
     }
 
-    fn gather_batch(&self, rec: &mut Recorder, b: &Batch) {
-        self.k.hemisphere.record(rec, b);
-        rec.barrier();
-        self.k.trace.record(rec, b);
-        rec.barrier();
-        self.k.reconstruct.record(rec, b);
-        rec.barrier();
+    /// One batch's kernels; `linked`: its integrals all read links.
+    fn gather_batch(&self, rec: &mut Recorder, b: &Batch, linked: bool) {
+        match (&self.k.linked, linked) {
+            (Some(k), true) => {
+                k.record(rec, b);
+                rec.barrier();
+            }
+            _ => {
+                self.k.hemisphere.record(rec, b);
+                rec.barrier();
+                self.k.trace.record(rec, b);
+                rec.barrier();
+                self.k.reconstruct.record(rec, b);
+                rec.barrier();
+            }
+        }
         self.k.reduce.record(rec, b);
         rec.barrier();
     }

@@ -13,6 +13,7 @@ pub mod direct;
 pub mod energy;
 pub mod gather;
 pub mod hemisphere;
+pub mod linked;
 pub mod oracle;
 pub mod poisson;
 pub mod pulldown;
@@ -31,7 +32,7 @@ use super::buffer::{compute_barrier, host_barrier, indirect_barrier, Buffer};
 use super::context::Context;
 use super::pipeline::{Kernel, Specialization};
 use super::profiler::Profiler;
-use crate::constants::{LINEAR_GROUP, VARIANT_ORIGINAL};
+use crate::constants::{LINEAR_GROUP, VARIANT_APPROX, VARIANT_ORIGINAL};
 use crate::error::Result;
 
 /// One command buffer being recorded: where dispatches, fills, copies and barriers go,
@@ -150,6 +151,8 @@ pub struct Kernels {
     pub trace: trace::Trace,
     pub reconstruct: reconstruct::Reconstruct,
     pub reduce: reduce::Reduce,
+    /// Built only for the approximate reconstruction (the variant with links).
+    pub linked: Option<linked::Linked>,
     /// Built only for the absolute hierarchy.
     pub pulldown: Option<pulldown::Pulldown>,
     /// Built only for the delta hierarchy.
@@ -171,6 +174,9 @@ impl Kernels {
             trace: trace::Trace::new(ctx, spec)?,
             reconstruct: reconstruct::Reconstruct::new(ctx, spec)?,
             reduce: reduce::Reduce::new(ctx, spec)?,
+            linked: (spec.variant == VARIANT_APPROX)
+                .then(|| linked::Linked::new(ctx, spec))
+                .transpose()?,
             pulldown: (!delta).then(|| pulldown::Pulldown::new(ctx, spec)).transpose()?,
             delta: delta.then(|| delta::Delta::new(ctx, spec)).transpose()?,
             oracle: oracle::Oracle::new(ctx, spec)?,
@@ -195,6 +201,7 @@ impl Kernels {
             energy::Energy::NAME,
             batches::Batches::NAME,
         ];
+        v.extend(self.linked.as_ref().map(|_| linked::Linked::NAME));
         v.extend(self.pulldown.as_ref().map(|_| pulldown::Pulldown::NAME));
         v.extend(self.delta.as_ref().map(|_| delta::Delta::NAME));
         v
@@ -211,6 +218,7 @@ pub const NAMES: &[&str] = &[
     direct::Direct::NAME,
     energy::Energy::NAME,
     hemisphere::Hemisphere::NAME,
+    linked::Linked::NAME,
     oracle::Oracle::NAME,
     poisson::Poisson::NAME,
     pulldown::Pulldown::NAME,
