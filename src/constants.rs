@@ -31,11 +31,14 @@ pub const CLIP_SCALE: u32 = 50000;
 /// The `counters` buffer (u32 slots): per level l, `COUNTERS_PER_LEVEL` slots from
 /// `COUNTERS_PER_LEVEL · l`: the nodes of level l the oracle refined
 /// (`+ COUNTER_REFINED`) and the nodes of level l + 1 they activated, the next level's
-/// active count (`+ COUNTER_ACTIVATED`); then the nodes lit per light i at
+/// active count (`+ COUNTER_ACTIVATED`), of which, where `compact` splits the active
+/// set, those that hold links are counted apart (`+ COUNTER_LINKED`: the next level's
+/// linked list; the active count is then the sum); then the nodes lit per light i at
 /// `LIGHT_COUNTERS + i` (LIGHT_COUNTERS ≥ COUNTERS_PER_LEVEL · MAX_LEVELS).
-pub const COUNTERS_PER_LEVEL: u32 = 2;
+pub const COUNTERS_PER_LEVEL: u32 = 3;
 pub const COUNTER_REFINED: u32 = 0;
 pub const COUNTER_ACTIVATED: u32 = 1;
+pub const COUNTER_LINKED: u32 = 2;
 pub const LIGHT_COUNTERS: u32 = 32;
 /// The `energy` buffer (f32 slots): the level-0 sums of mean(un-shot) and mean(direct)
 /// (the stop criterion), and from `ENERGY_MEAN_DIRECT` three slots of mean direct
@@ -97,6 +100,7 @@ pub const OFFSET_FINE_DIV: f32 = 2_097_152.0;
 const _: () = {
     assert!(LIGHT_COUNTERS >= COUNTERS_PER_LEVEL * MAX_LEVELS);
     assert!(COUNTER_REFINED < COUNTERS_PER_LEVEL && COUNTER_ACTIVATED < COUNTERS_PER_LEVEL);
+    assert!(COUNTER_LINKED < COUNTERS_PER_LEVEL);
     assert!(ENERGY_UNSHOT == 0 && ENERGY_DIRECT == 1); // read back as the first two slots
     assert!(ENERGY_MEAN_DIRECT >= 2 && ENERGY_MEAN_DIRECT + 3 <= ENERGY_SLOTS);
     assert!(DISPATCH_RAYS + DISPATCH_WORDS <= DISPATCH_REDUCE);

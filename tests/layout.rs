@@ -188,6 +188,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
         active_flag,
         child_flag,
         active_list,
+        linked_list,
         counters,
         rays,
         hits,
@@ -234,7 +235,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
         pad
     );
     check("CompactPush", "g", offset_of!(CompactPush, globals));
-    same!(CompactPush, "CompactPush", first, count, parent_level, pad0);
+    same!(CompactPush, "CompactPush", first, count, parent_level, split);
     check("EnergyPush", "g", offset_of!(EnergyPush, globals));
     same!(EnergyPush, "EnergyPush", first, count, mean_direct, pad0);
     check("BatchesPush", "g", offset_of!(BatchesPush, globals));
@@ -244,7 +245,9 @@ fn gpu_struct_offsets_match_the_host_structs() {
         batches,
         batch_size,
         count_slot,
-        max_groups_x
+        max_groups_x,
+        first_batch,
+        pad0
     );
     check("ClipsPush", "g", offset_of!(ClipsPush, globals));
     same!(

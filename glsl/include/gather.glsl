@@ -10,7 +10,7 @@ layout(push_constant) uniform GatherPush {
     uint first;       // first node (global index) of the level
     uint count;       // integrals in this batch (for a device-sized batch: at most)
     uint batch_first; // first integral of this batch within the level's integrals
-    uint from_list;   // 1: integral i is node active_list[batch_first + i]; 0: node first + batch_first + i
+    uint from_list;   // 1: integral i is node active_list[batch_first + i]; 2: linked_list[...]; 0: node first + batch_first + i
     uint count_slot;  // NONE, or the counter holding the level's active count (device-sized batches)
     uint exact_direct; // 1: reconstruct reads the exact direct irradiance at the hits
 } pc;
@@ -28,6 +28,9 @@ uint batch_count() {
 
 // The node of integral i of this batch.
 uint integral_node(GlobalsRef g, uint i) {
+    if (pc.from_list == 2u) {
+        return g.linked_list.v[pc.batch_first + i];
+    }
     return pc.from_list == 1u ? g.active_list.v[pc.batch_first + i] : pc.first + pc.batch_first + i;
 }
 

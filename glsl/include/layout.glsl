@@ -96,6 +96,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     UintRef active_flag;
     UintRef child_flag;
     UintRef active_list;
+    UintRef linked_list;
     UintRef counters;
     RayRef rays;
     HitRef hits;

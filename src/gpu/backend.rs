@@ -17,9 +17,9 @@ use super::profiler::Profiler;
 use super::resources::{cwbvh_of, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use super::schedule::{Active, Schedule};
 use crate::constants::{
-    BVH_BVH2, BVH_CWBVH, COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_REFINED, ENERGY_DIRECT, ENERGY_UNSHOT,
-    LIGHT_COUNTERS, LINK_COUNTERS, LINK_LINKED, LINK_TAKEN, LINK_TRACED, LINK_TRACED_FULL, VARIANT_APPROX,
-    VARIANT_MODIFIED, VARIANT_ORIGINAL,
+    BVH_BVH2, BVH_CWBVH, COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_LINKED, COUNTER_REFINED, ENERGY_DIRECT,
+    ENERGY_UNSHOT, LIGHT_COUNTERS, LINK_COUNTERS, LINK_LINKED, LINK_TAKEN, LINK_TRACED, LINK_TRACED_FULL,
+    VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
 };
 use crate::error::{Error, Result};
 use crate::hierarchy::{Arrangement, ClipSelection, Hierarchy};
@@ -449,7 +449,7 @@ impl Backend for GpuBackend<'_> {
     }
 
     fn refine(&mut self, level: u32, activate: bool, sparse: u32) -> Result<Refined> {
-        self.submit(|s, rec| s.refine(rec, level, activate, sparse, false))?;
+        self.submit(|s, rec| s.refine(rec, level, activate, sparse, false, false))?;
         let c: Vec<u32> = self
             .res
             .state
@@ -493,7 +493,9 @@ impl Backend for GpuBackend<'_> {
                     if l <= 1 {
                         self.h.level_range(l as usize).len() as u32
                     } else {
-                        slot(l - 1, COUNTER_ACTIVATED)
+                        // Split where the bounce reads links: the nodes without links and
+                        // those with.
+                        slot(l - 1, COUNTER_ACTIVATED) + slot(l - 1, COUNTER_LINKED)
                     }
                 })
                 .collect(),

@@ -39,6 +39,8 @@ pub struct Globals {
     pub active_flag: u64,
     pub child_flag: u64,
     pub active_list: u64,
+    /// The next level's active nodes that hold links, where `compact` splits the set.
+    pub linked_list: u64,
     pub counters: u64,
     pub rays: u64,
     pub hits: u64,
@@ -104,8 +106,8 @@ pub const CONTRIB_BYTES: u64 = 16;
 pub const LINK_RECORD_BYTES: u64 = 16;
 
 const _: () = {
-    assert!(std::mem::size_of::<Globals>() == 39 * 8 + 14 * 4 + 7 * 8 + 10 * 4);
-    assert!(std::mem::offset_of!(Globals, emitters) == 368);
-    assert!(std::mem::offset_of!(Globals, num_objects) == 312);
-    assert!(std::mem::offset_of!(Globals, sender_level) == 360);
+    assert!(std::mem::size_of::<Globals>() == 40 * 8 + 14 * 4 + 7 * 8 + 10 * 4);
+    assert!(std::mem::offset_of!(Globals, emitters) == 376);
+    assert!(std::mem::offset_of!(Globals, num_objects) == 320);
+    assert!(std::mem::offset_of!(Globals, sender_level) == 368);
 };

@@ -164,6 +164,8 @@ pub struct NodeState {
     pub child_flag: Buffer,
     /// u32 per node of the largest level: the active set being gathered.
     pub active_list: Buffer,
+    /// The next level's active nodes that hold links (`compact` with `split`).
+    pub linked_list: Buffer,
     /// u32 slots `COUNTER*` / `LIGHT_COUNTERS` (`crate::constants`).
     pub counters: Buffer,
     /// f32 slots `ENERGY_*` (`crate::constants`).
@@ -249,6 +251,7 @@ impl Resources {
             active_flag: z("active flags", (n * 4) as u64)?,
             child_flag: z("child flags", (n * 4) as u64)?,
             active_list: z("active", (largest_level.max(1) * 4) as u64)?,
+            linked_list: z("linked", (largest_level.max(1) * 4) as u64)?,
             counters: z("counters", 4 * (LIGHT_COUNTERS as u64 + scene.sources() as u64))?,
             energy: z("energy", 4 * ENERGY_SLOTS as u64)?,
             link_slot: device("link slots", (n * 4) as u64)?,
@@ -257,7 +260,8 @@ impl Resources {
             link_capacity: links,
         };
         let rays_in_flight = batch as u64 * p.rays as u64;
-        let batches = largest_level.div_ceil(batch as usize) as u64 + 1;
+        // The active list's batches, then the linked list's (`Schedule::gather`).
+        let batches = 2 * (largest_level.div_ceil(batch as usize) as u64 + 1);
         let bb = BatchBuffers {
             rays: device("rays", rays_in_flight * RAY_BYTES)?,
             hits: device("hits", rays_in_flight * HIT_BYTES)?,
@@ -375,6 +379,7 @@ fn globals(
         active_flag: st.active_flag.address,
         child_flag: st.child_flag.address,
         active_list: st.active_list.address,
+        linked_list: st.linked_list.address,
         counters: st.counters.address,
         rays: b.rays.address,
         hits: b.hits.address,

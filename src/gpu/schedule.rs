@@ -10,7 +10,7 @@ use ash::vk;
 use super::kernels::gather::{Batch, GatherPush, Grid};
 use super::kernels::{Kernels, Recorder};
 use super::resources::{Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
-use crate::constants::{COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, DISPATCH_PER_BATCH, NONE};
+use crate::constants::{COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_LINKED, DISPATCH_PER_BATCH, NONE};
 use crate::hierarchy::Hierarchy;
 
 /// Which integrals a gathered level has, and who knows how many.
@@ -26,9 +26,15 @@ pub enum Active {
 }
 
 /// The counter slot of the nodes that level `l`'s refined nodes activated (the active
-/// count of level `l + 1`).
+/// count of level `l + 1`; where `compact` split the set, those without links).
 pub fn activated_slot(l: u32) -> u32 {
     COUNTERS_PER_LEVEL * l + COUNTER_ACTIVATED
+}
+
+/// The counter slot of the activated nodes of level `l + 1` that hold links, where
+/// `compact` split the set (the length of the linked list).
+pub fn linked_slot(l: u32) -> u32 {
+    COUNTERS_PER_LEVEL * l + COUNTER_LINKED
 }
 
 /// What the stages are recorded against.
@@ -54,6 +60,17 @@ pub struct Schedule<'a> {
 impl Schedule<'_> {
     fn level(&self, l: u32) -> Range<usize> {
         self.h.level_range(l as usize)
+    }
+
+    /// Batches a level of the device's sizing may need, per list.
+    fn device_batches(&self, l: u32) -> u32 {
+        self.level(l).len().div_ceil(self.batch as usize) as u32
+    }
+
+    /// Whether a fused bounce splits the finer levels' active sets into nodes that hold
+    /// links (gathered by kernel `linked`) and the others: when its gathers read links.
+    fn splits(&self, exact_direct: bool) -> bool {
+        self.k.linked.is_some() && self.res.state.link_capacity > 0 && !exact_direct
     }
 
     /// `E_d` at every node, then the mean direct irradiance (the oracle's scale). A solve
@@ -134,26 +151,37 @@ impl Schedule<'_> {
                 }
             }
             Active::OnDevice => {
-                for b in 0..r.len().div_ceil(self.batch as usize) as u32 {
-                    let push = GatherPush {
-                        count: self.batch,
-                        batch_first: b * self.batch,
-                        count_slot: activated_slot(l - 1),
-                        ..base
-                    };
-                    let grid = Grid::Device {
-                        args: &self.res.batch.dispatch_args,
-                        at: 4 * (DISPATCH_PER_BATCH * b) as u64,
-                    };
-                    self.gather_batch(
-                        rec,
-                        &Batch {
-                            push,
-                            rays: self.rays,
-                            grid,
-                        },
-                        false,
-                    );
+                // The active list's batches, then (where `compact` split the set) the
+                // linked list's, whose grids follow in the argument buffer.
+                let nb = self.device_batches(l);
+                let lists: &[(u32, u32, bool)] = if self.splits(exact_direct) {
+                    &[(1, activated_slot(l - 1), false), (2, linked_slot(l - 1), true)]
+                } else {
+                    &[(1, activated_slot(l - 1), false)]
+                };
+                for (k, &(from_list, count_slot, linked)) in lists.iter().enumerate() {
+                    for b in 0..nb {
+                        let push = GatherPush {
+                            count: self.batch,
+                            batch_first: b * self.batch,
+                            from_list,
+                            count_slot,
+                            ..base
+                        };
+                        let grid = Grid::Device {
+                            args: &self.res.batch.dispatch_args,
+                            at: 4 * (DISPATCH_PER_BATCH * (k as u32 * nb + b)) as u64,
+                        };
+                        self.gather_batch(
+                            rec,
+                            &Batch {
+                                push,
+                                rays: self.rays,
+                                grid,
+                            },
+                            linked,
+                        );
+                    }
                 }
             }
         }
@@ -181,8 +209,9 @@ impl Schedule<'_> {
 
     /// Prediction, oracle and new values of level `l`; with `activate`, the next level's
     /// active set (the sparse children of lit nodes with `sparse > 0`; and, with
-    /// `next_on_device`, its batches' grids).
-    pub fn refine(&self, rec: &mut Recorder, l: u32, activate: bool, sparse: u32, next_on_device: bool) {
+    /// `next_on_device`, its batches' grids, the set split into the nodes that hold links
+    /// and the others where the bounce reads links, `split`).
+    pub fn refine(&self, rec: &mut Recorder, l: u32, activate: bool, sparse: u32, next_on_device: bool, split: bool) {
         let r = self.level(l);
         let next = if activate { self.level(l + 1) } else { 0..0 };
         let st = &self.res.state;
@@ -201,13 +230,16 @@ impl Schedule<'_> {
         self.k.oracle.record(rec, r, l, activate, sparse);
         rec.barrier();
         if activate {
-            self.k.compact.record(rec, next.clone(), l);
+            let split = split && next_on_device;
+            self.k.compact.record(rec, next.clone(), l, split);
             rec.barrier();
             if next_on_device {
-                let batches = next.len().div_ceil(self.batch as usize) as u32;
-                self.k
-                    .batches
-                    .record(rec, batches, self.batch, activated_slot(l), self.max_groups_x);
+                let nb = self.device_batches(l + 1);
+                let x = self.max_groups_x;
+                self.k.batches.record(rec, nb, self.batch, activated_slot(l), x, 0);
+                if split {
+                    self.k.batches.record(rec, nb, self.batch, linked_slot(l), x, nb);
+                }
                 rec.indirect_barrier();
             }
         }
@@ -240,7 +272,7 @@ impl Schedule<'_> {
         for l in 0..g {
             let active = if l <= 1 { Active::Level } else { Active::OnDevice };
             self.gather(rec, l, active, exact_direct);
-            self.refine(rec, l, l >= 1 && l + 1 < g, sparse, true);
+            self.refine(rec, l, l >= 1 && l + 1 < g, sparse, true, self.splits(exact_direct));
         }
         self.fill(rec, g);
         self.end_bounce(rec);

@@ -19,20 +19,34 @@ pub struct BatchesPush {
     pub count_slot: u32,
     /// The device's largest x grid; wider grids fold into y.
     pub max_groups_x: u32,
+    /// Where this list's grids start in the argument buffer, in batches.
+    pub first_batch: u32,
+    /// Padding.
+    pub pad0: u32,
 }
 
 kernel!(Batches, "batches", BATCHES, BatchesPush);
 
 impl Batches {
     /// Records the grids of `batches` batches of `batch_size` integrals whose total is in
-    /// counter `count_slot`.
-    pub fn record(&self, rec: &mut Recorder, batches: u32, batch_size: u32, count_slot: u32, max_groups_x: u32) {
+    /// counter `count_slot`, from batch `first_batch` of the argument buffer.
+    pub fn record(
+        &self,
+        rec: &mut Recorder,
+        batches: u32,
+        batch_size: u32,
+        count_slot: u32,
+        max_groups_x: u32,
+        first_batch: u32,
+    ) {
         let push = BatchesPush {
             globals: rec.globals,
             batches,
             batch_size,
             count_slot,
             max_groups_x,
+            first_batch,
+            pad0: 0,
         };
         rec.dispatch(&self.0, &push, per_element(batches as u64));
     }

@@ -20,7 +20,8 @@ pub struct GatherPush {
     pub count: u32,
     /// First integral of this batch within the level's integrals.
     pub batch_first: u32,
-    /// 1: integral i is node `active_list[batch_first + i]`; 0: node `first + batch_first + i`.
+    /// 1: integral i is node `active_list[batch_first + i]`; 2: node
+    /// `linked_list[batch_first + i]`; 0: node `first + batch_first + i`.
     pub from_list: u32,
     /// `NONE`, or the counter slot holding the level's active count (device-sized batches).
     pub count_slot: u32,
