@@ -2,9 +2,10 @@
 // §5.6): each ray's sample is its link's albedo times the un-shot value of its sender
 // node, the product `reconstruct` writes for a linked integral, and the integral's first
 // thread counts it as `hemisphere` does. The schedule dispatches it, and `reduce` after
-// it, instead of hemisphere, trace and reconstruct where the host knows that every node
-// of the batch holds links: levels 0 and 1 after a solve's first bounce, when the links
-// have room for all their nodes (`Schedule::linked_levels`). A small kernel of its own
+// it, instead of hemisphere, trace and reconstruct for batches whose every node holds
+// links: levels 0 and 1 after a solve's first bounce, when the links have room for all
+// their nodes (`Schedule::linked_levels`), and the finer levels' linked lists (`compact`
+// with `split`, batches with from_list 2). A small kernel of its own
 // because lavapipe runs a shader's branches masked: in `reconstruct` a linked ray pays
 // for the traced path it skips. CPU twin: transport::links::gather.
 #version 460
