@@ -497,13 +497,22 @@ fn scan_matches_a_prefix_sum() {
 /// ray's sender node and albedo, and its later gathers read them instead of tracing. The
 /// solution must be the traced one bit for bit, with room for every node, with room for a
 /// few (the rest traced every bounce) and with none; the counts show the links used and
-/// the full case out of room; a warm solve on the same backend records its own.
+/// the full case out of room; a warm solve on the same backend records its own. With and
+/// without the exact first bounce (without it, the first bounce reads no link although
+/// its gathers record them: the schedule must not take levels 0 and 1 for linked there).
 #[test]
 fn gpu_links_give_the_traced_answer() {
+    for exact in [true, false] {
+        links_give_the_traced_answer_with(exact);
+    }
+}
+
+fn links_give_the_traced_answer_with(exact_first_bounce: bool) {
     let ctx = context();
     let run = |link_memory: u32, warmups: u32| {
         let (s, mut p) = cornell(4, 64, Variant::Approx);
         p.link_memory = link_memory;
+        p.exact_first_bounce = exact_first_bounce;
         p.stop_threshold = 1e-3;
         let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
         let mut g = GpuBackend::new(ctx.clone(), &s, &h, &p).unwrap();
@@ -528,7 +537,8 @@ fn gpu_links_give_the_traced_answer() {
         let same = |a: &[Vec4], b: &[Vec4]| bytemuck::cast_slice::<Vec4, u8>(a) == bytemuck::cast_slice::<Vec4, u8>(b);
         assert!(
             same(&linked.direct, &traced.direct) && same(&linked.indirect, &traced.indirect),
-            "link_memory {mib} (warm-ups {warmups}): the solution differs from the traced one"
+            "link_memory {mib} (warm-ups {warmups}, exact first bounce {exact_first_bounce}): the solution differs \
+             from the traced one"
         );
         common::check_link_counts(&l, mib, full, 64, (16, 16));
         assert_eq!(
