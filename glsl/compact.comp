@@ -28,8 +28,7 @@ void main() {
     uint j = pc.first + id;
     if (g.child_flag.v[j] == 1u) {
         uint base = COUNTERS_PER_LEVEL * pc.parent_level;
-        uint s = g.link_slot.v[j];
-        if (pc.split == 1u && s != NONE && (s & LINK_RECORDING) == 0u) {
+        if (pc.split == 1u && is_linked(g.link_slot.v[j])) {
             g.linked_list.v[atomicAdd(g.counters.v[base + COUNTER_LINKED], 1u)] = j;
         } else {
             g.active_list.v[atomicAdd(g.counters.v[base + COUNTER_ACTIVATED], 1u)] = j;

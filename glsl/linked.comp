@@ -27,7 +27,5 @@ void main() {
     if (r == 0u) {
         atomicAdd(g.link_counters.v[LINK_LINKED], 1u);
     }
-    uvec4 link = g.links.v[s * n_rays + r];
-    vec3 c = link.x != NONE ? uintBitsToFloat(link.yzw) * g.unshot.v[link.x].xyz : vec3(0.0);
-    g.contrib.v[id] = vec4(c, 0.0);
+    g.contrib.v[id] = vec4(link_sample(g, s, r), 0.0);
 }

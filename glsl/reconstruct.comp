@@ -26,9 +26,7 @@ void main() {
     bool recording = s != NONE && (s & LINK_RECORDING) != 0u;
     if (is_linked(s) && links_read()) {
         // The link: the same product the traced read makes.
-        uvec4 link = g.links.v[s * n_rays + r];
-        vec3 c = link.x != NONE ? uintBitsToFloat(link.yzw) * g.unshot.v[link.x].xyz : vec3(0.0);
-        g.contrib.v[id] = vec4(c, 0.0);
+        g.contrib.v[id] = vec4(link_sample(g, s, r), 0.0);
         return;
     }
     HitRecord h = g.hits.v[id];

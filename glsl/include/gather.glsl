@@ -47,9 +47,11 @@ bool links_read() {
     return links_on() && pc.exact_direct == 0u;
 }
 
-// Whether a node's gathers read its links (its slot, recorded by an earlier gather).
-bool is_linked(uint slot) {
-    return slot != NONE && (slot & LINK_RECORDING) == 0u;
+// A linked integral's sample of ray r: the link's albedo times the un-shot value of its
+// sender node, the product the traced read makes (kernels `reconstruct` and `linked`).
+vec3 link_sample(GlobalsRef g, uint slot, uint r) {
+    uvec4 link = g.links.v[slot * g.rays_per_integral + r];
+    return link.x != NONE ? uintBitsToFloat(link.yzw) * g.unshot.v[link.x].xyz : vec3(0.0);
 }
 
 #endif

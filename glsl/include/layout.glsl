@@ -155,4 +155,10 @@ uint group_id() {
     return gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x;
 }
 
+// Whether a node's gathers read its links (its slot word: recorded by an earlier gather,
+// not NONE and not marked as recording).
+bool is_linked(uint slot) {
+    return slot != NONE && (slot & LINK_RECORDING) == 0u;
+}
+
 #endif

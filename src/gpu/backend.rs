@@ -321,7 +321,8 @@ impl<'a> GpuBackend<'a> {
     fn linked_levels(&self) -> u32 {
         let levels = self.p.gather_levels().min(2);
         let nodes = self.h.level_start[levels as usize] as u64;
-        let links = self.p.variant == Variant::Approx && self.res.state.link_capacity > 0;
+        // `linked` is built for the variant that keeps links (as `Schedule::splits` asks).
+        let links = self.k.linked.is_some() && self.res.state.link_capacity > 0;
         if links && self.bounces_done >= 1 && nodes <= self.res.state.link_capacity as u64 {
             levels
         } else {
