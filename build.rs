@@ -2,6 +2,10 @@
 //! crate) and embeds it; writes `constants.glsl` from `src/constants.rs` so every shared
 //! constant is typed once. A missing compiler fails the build with the install command;
 //! stale or committed SPIR-V is never used.
+//!
+//! A build with nothing changed reruns nothing: generated files are written only when
+//! their text changes, and the kernels' depfiles name them (`OUT_DIR/include/…`), so
+//! those entries are not watched (their source, `src/constants.rs`, is).
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -29,7 +33,7 @@ fn main() {
             let spv = out.join(format!("{name}.spv"));
             let dep = out.join(format!("{name}.d"));
             compile(&compiler, src, &spv, &dep, &gen);
-            for f in read_depfile(&dep) {
+            for f in read_depfile(&dep).into_iter().filter(|f| !f.starts_with(&out)) {
                 println!("cargo:rerun-if-changed={}", f.display());
             }
             let _ = writeln!(
@@ -54,7 +58,16 @@ fn main() {
         table,
         "pub const CONSTANTS_GLSL: &str = include_str!(concat!(env!(\"OUT_DIR\"), \"/include/constants.glsl\"));"
     );
-    std::fs::write(out.join("shaders.rs"), table).expect("write shaders.rs");
+    write_if_changed(&out.join("shaders.rs"), &table);
+}
+
+/// Writes `text` to `path` unless the file already holds it (a rewrite with the same
+/// text would still make everything that includes it stale).
+fn write_if_changed(path: &Path, text: &str) {
+    if std::fs::read_to_string(path).is_ok_and(|old| old == text) {
+        return;
+    }
+    std::fs::write(path, text).unwrap_or_else(|e| panic!("write {}: {e}", path.display()));
 }
 
 enum Compiler {
@@ -156,5 +169,5 @@ fn write_constants(src: &Path, dst: &Path) {
         }
     }
     out.push_str("#endif\n");
-    std::fs::write(dst, out).expect("write constants.glsl");
+    write_if_changed(dst, &out);
 }
