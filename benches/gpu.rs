@@ -5,7 +5,8 @@
 use std::sync::Arc;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use meshrad::gpu::{Context, ContextOptions, GpuBackend};
+use meshrad::device::GpuBackend;
+use meshrad::gpu::{Context, ContextOptions};
 use meshrad::progress::Progress;
 use meshrad::transport::{self, Backend};
 use meshrad::{Hierarchy, Scene, Variant};

@@ -15,9 +15,10 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 
+use crate::device::backend::{GpuReport, GpuResident};
+use crate::device::GpuBackend;
 use crate::error::{Error, Result};
-use crate::gpu::backend::{GpuReport, GpuResident};
-use crate::gpu::{Context, GpuBackend};
+use crate::gpu::Context;
 use crate::hierarchy::{Arrangement, Hierarchy};
 use crate::params::{Reach, SolverParams};
 use crate::progress::Progress;

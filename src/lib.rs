@@ -10,6 +10,7 @@ pub mod analytic;
 pub mod bench;
 pub mod cli;
 pub mod constants;
+pub mod device;
 pub mod edit;
 pub mod error;
 pub mod geom;

@@ -4,9 +4,10 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use crate::device::backend::{GpuReport, GpuResident};
+use crate::device::GpuBackend;
 use crate::error::Result;
-use crate::gpu::backend::{GpuReport, GpuResident};
-use crate::gpu::{Context, GpuBackend};
+use crate::gpu::Context;
 use crate::hierarchy::poisson::Candidate;
 use crate::hierarchy::{CreviceTest, Hierarchy, LevelJob, LevelsElsewhere};
 use crate::params::{DartThrowing, SolverParams};
@@ -54,7 +55,7 @@ pub fn solve(scene: &Scene, params: &SolverParams, ctx: Option<Arc<Context>>, pr
 /// or on the device of `ctx`: there the scene and the hierarchy's nodes are uploaded and
 /// the support clips computed where the transport runs ([`GpuResident::arrange`]), and
 /// what stays on the device comes back with the hierarchy. The Poisson-disk levels are
-/// thrown on the device too ([`crate::gpu::poisson`]) where `dart_throwing` says so or,
+/// thrown on the device too ([`crate::device::poisson`]) where `dart_throwing` says so or,
 /// unset, where the device is not a CPU and has room for them.
 pub fn build_hierarchy(
     scene: &Scene,
@@ -71,10 +72,10 @@ pub fn build_hierarchy(
     };
     // Unset, `dart_throwing` leaves to the host what the device has no room for.
     let device = |scene: &Scene, pools: &[Vec<Candidate>], jobs: &[LevelJob], crevice: &CreviceTest, pr: &Progress| {
-        if params.dart_throwing.is_none() && !crate::gpu::poisson::fits(ctx, jobs) {
+        if params.dart_throwing.is_none() && !crate::device::poisson::fits(ctx, jobs) {
             return Ok(None);
         }
-        crate::gpu::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice, pr).map(Some)
+        crate::device::poisson::levels_on_device(ctx, scene, params, pools, jobs, crevice, pr).map(Some)
     };
     let elsewhere: Option<LevelsElsewhere> = if on_device { Some(&device) } else { None };
     let mut h = Hierarchy::build_unarranged_with(scene, params, progress, elsewhere)?;

@@ -170,7 +170,7 @@ fn frames_equal_fresh_solves_gpu() {
     frames_equal_fresh_solves(Some(Arc::new(ctx)));
 }
 
-/// The arrangement on the device (`meshrad::gpu::arrange`: clips and relations) against
+/// The arrangement on the device (`meshrad::device::arrange`: clips and relations) against
 /// the CPU's: on the Cornell box in parts, as built and after the tall block moved (frame
 /// 1 of [`frames`]), the clips and parent lists are the same but for float rounding (a
 /// ray grazing an edge, a distance on a quantisation step), and the same nodes' clips and

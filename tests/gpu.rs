@@ -7,10 +7,11 @@ mod common;
 use std::sync::Arc;
 
 use glam::{Vec3, Vec4, Vec4Swizzles};
+use meshrad::device::backend::State;
+use meshrad::device::GpuBackend;
 use meshrad::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
 use meshrad::geom::Ray;
-use meshrad::gpu::backend::State;
-use meshrad::gpu::{Context, ContextOptions, GpuBackend};
+use meshrad::gpu::{Context, ContextOptions};
 use meshrad::hierarchy::Hierarchy;
 use meshrad::progress::Progress;
 use meshrad::transport::cpu::{gather_integral, node_world, CpuBackend};
@@ -450,9 +451,9 @@ fn cwbvh_matches_bvh2() {
 /// totals (256 blocks), including a million words.
 #[test]
 fn scan_matches_a_prefix_sum() {
+    use meshrad::device::kernels::scan::Scan;
+    use meshrad::device::kernels::Recorder;
     use meshrad::gpu::buffer::Buffer;
-    use meshrad::gpu::kernels::scan::Scan;
-    use meshrad::gpu::kernels::Recorder;
     use meshrad::gpu::pipeline::Specialization;
     use meshrad::gpu::profiler::Profiler;
 

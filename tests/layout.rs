@@ -9,8 +9,8 @@ use std::mem::offset_of;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use meshrad::gpu::globals::Globals;
-use meshrad::gpu::kernels::{
+use meshrad::device::globals::Globals;
+use meshrad::device::kernels::{
     accumulate::AccumulatePush, batches::BatchesPush, clips::ClipsPush, compact::CompactPush, delta::DeltaPush,
     direct::DirectPush, energy::EnergyPush, gather::GatherPush, oracle::OraclePush, poisson::PoissonPush,
     pulldown::PulldownPush,
@@ -313,11 +313,11 @@ fn every_kernel_has_its_wrapper() {
             let rs = root.join("src/gpu/kernels").join(format!("{name}.rs"));
             assert!(rs.is_file(), "{} has no wrapper {}", p.display(), rs.display());
             assert!(
-                meshrad::gpu::kernels::NAMES.contains(&name.as_str()),
-                "{name} is not in meshrad::gpu::kernels::NAMES"
+                meshrad::device::kernels::NAMES.contains(&name.as_str()),
+                "{name} is not in meshrad::device::kernels::NAMES"
             );
             n += 1;
         }
     }
-    assert_eq!(n, meshrad::gpu::kernels::NAMES.len());
+    assert_eq!(n, meshrad::device::kernels::NAMES.len());
 }

@@ -265,14 +265,14 @@ fn gpu_reduction_of_a_million_samples() {
         .expect("a Vulkan device"),
     );
     use meshrad::transport::Backend;
-    let mut g = meshrad::gpu::GpuBackend::new(ctx.clone(), &scene, &h, &params).unwrap();
+    let mut g = meshrad::device::GpuBackend::new(ctx.clone(), &scene, &h, &params).unwrap();
     let mut c = meshrad::transport::cpu::CpuBackend::new(&scene, &h, &params, &Progress::hidden());
     for b in [&mut g as &mut dyn Backend, &mut c] {
         b.direct().unwrap();
         b.init_unshot().unwrap();
         b.gather(0, params.exact_first_bounce).unwrap();
     }
-    let gm = g.read_state(meshrad::gpu::backend::State::GatheredMean).unwrap();
+    let gm = g.read_state(meshrad::device::backend::State::GatheredMean).unwrap();
     let mut worst = 0.0f64;
     let mut lit = 0;
     for j in h.level_range(0) {

@@ -231,7 +231,7 @@ pub fn run_scene(
         let t = Instant::now();
         let sol = match (ctx.clone(), resident) {
             (Some(c), Some(r)) => {
-                let mut b = crate::gpu::GpuBackend::resume(c, r, &fresh, &h, &p)?;
+                let mut b = crate::device::GpuBackend::resume(c, r, &fresh, &h, &p)?;
                 crate::transport::solve(&p, &mut b, &hidden)?
             }
             _ => crate::run::transport_on(&fresh, &p, &h, None, 0, &hidden)?.0,

@@ -15,7 +15,7 @@ use serde::Serialize;
 
 use std::sync::Arc;
 
-use crate::gpu::backend::GpuReport;
+use crate::device::backend::GpuReport;
 use crate::gpu::{list_devices, Context, ContextOptions};
 use crate::hierarchy::{Hierarchy, HierarchyStats};
 use crate::limits::Limits;

@@ -1,21 +1,16 @@
-//! The Vulkan layer (ash + gpu-allocator): a headless compute context, buffers reached by
-//! device address, compute pipelines built from the SPIR-V that `build.rs` embeds, GPU
-//! timestamps, and the transport backend that runs the whole bounce loop on the device.
-//! Nothing outside this module imports `ash`.
+//! The Vulkan layer (ash + gpu-allocator), and nothing of the method: a headless compute
+//! context, buffers reached by device address and their barriers, compute pipelines built
+//! from the SPIR-V that `build.rs` embeds, command recording with GPU timestamps. The
+//! method's GPU half (the transport backend, its resources, schedule and kernel wrappers,
+//! the device arrangement and dart throwing) is `crate::device`, above the algorithm;
+//! this module imports nothing of the crate but `error` and `constants`. Nothing outside
+//! `gpu` and `device` imports `ash`.
 
-pub mod arrange;
-pub mod backend;
 pub mod buffer;
 pub mod context;
-pub mod globals;
-pub mod kernels;
 pub mod pipeline;
-pub mod poisson;
 pub mod profiler;
-pub mod resources;
-pub mod schedule;
-
-pub use backend::GpuBackend;
+pub mod recorder;
 
 pub use context::{list_devices, Context, ContextOptions, DeviceInfo};
 

@@ -1,5 +1,5 @@
 //! Compute pipelines from embedded SPIR-V. There are no descriptor sets: each kernel has
-//! its own push-constant struct (`super::kernels::<name>`), whose first field is the
+//! its own push-constant struct (`crate::device::kernels::<name>`), whose first field is the
 //! address of the `Globals` block. The variant, texturing and the BVH kind are
 //! specialization constants.
 

@@ -883,7 +883,7 @@ impl Hierarchy {
     }
 
     /// [`Hierarchy::build`] up to what depends on the arrangement: no clips and no
-    /// relations yet ([`Hierarchy::arrange`] adds them, or the device: `crate::gpu::arrange`).
+    /// relations yet ([`Hierarchy::arrange`] adds them, or the device: `crate::device::arrange`).
     pub fn build_unarranged(scene: &Scene, p: &SolverParams, progress: &Progress) -> Result<Hierarchy> {
         Hierarchy::build_unarranged_with(scene, p, progress, None)
     }
@@ -978,7 +978,7 @@ impl Hierarchy {
     /// relations. [`Hierarchy::build`] ends with it; after objects move, it brings a
     /// hierarchy to exactly what a build for the new arrangement gives (with `reach =
     /// "object"`, where nothing else depends on the arrangement). On the GPU backend the
-    /// device does this (`crate::gpu::arrange`).
+    /// device does this (`crate::device::arrange`).
     pub fn arrange(&mut self, scene: &Scene, p: &SolverParams, progress: &Progress) {
         let t = Instant::now();
         progress.stage("support clipping");

@@ -6,14 +6,14 @@ use std::sync::Arc;
 
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::Context;
 use super::globals::{Globals, CONTRIB_BYTES, HIT_BYTES, LINK_RECORD_BYTES, RAY_BYTES};
 use crate::constants::{
     COUNTERS_PER_LEVEL, DISPATCH_PER_BATCH, ENERGY_DIRECT, ENERGY_SLOTS, LIGHT_COUNTERS, LINK_COUNTERS, MAX_LEVELS,
 };
 use crate::error::Result;
 use crate::geom::sampling::halton_table;
+use crate::gpu::buffer::Buffer;
+use crate::gpu::context::Context;
 use crate::hierarchy::Hierarchy;
 use crate::layout::CwNode;
 use crate::params::{BvhKind, SolverParams, Variant};

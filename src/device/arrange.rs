@@ -15,17 +15,17 @@ use std::time::Instant;
 
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::Context;
 use super::kernels::clips::{Clips, ClipsPush, ALL};
 use super::kernels::relations::{self, Relations, RelationsPush};
 use super::kernels::scan::Scan;
 use super::kernels::submit;
-use super::pipeline::Specialization;
-use super::profiler::Profiler;
 use super::resources::Resources;
 use crate::constants::MAX_LEVELS;
 use crate::error::Result;
+use crate::gpu::buffer::Buffer;
+use crate::gpu::context::Context;
+use crate::gpu::pipeline::Specialization;
+use crate::gpu::profiler::Profiler;
 use crate::hierarchy::weight::{Clip, NO_CLIP};
 use crate::hierarchy::{ClipSelection, Hierarchy};
 use crate::layout::Parent;

@@ -17,15 +17,15 @@ use std::sync::Arc;
 
 use gpu_allocator::MemoryLocation;
 
-use super::buffer::Buffer;
-use super::context::Context;
 use super::globals::Globals;
 use super::kernels::poisson::{Poisson, PoissonPush, COUNT, IN, RESOLVE, SCATTER};
 use super::kernels::scan::Scan;
 use super::kernels::submit;
-use super::profiler::Profiler;
 use super::resources::cwbvh_of;
 use crate::error::{Error, Result};
+use crate::gpu::buffer::Buffer;
+use crate::gpu::context::Context;
+use crate::gpu::profiler::Profiler;
 use crate::hierarchy::poisson::Candidate;
 use crate::hierarchy::{CreviceTest, LevelJob, Thrown};
 use crate::layout::ObjectInfo;

@@ -2,7 +2,7 @@
 //! throwing on the device (`ALGORITHM.md` §3.2): a hashed grid of the candidates
 //! ([`COUNT`], kernel `scan`, [`SCATTER`]), then rounds of [`RESOLVE`] until every
 //! candidate is in or out. It runs before the hierarchy is assembled
-//! ([`crate::gpu::poisson`]), not in the bounce loop's schedule.
+//! ([`crate::device::poisson`]), not in the bounce loop's schedule.
 
 use bytemuck::{Pod, Zeroable};
 

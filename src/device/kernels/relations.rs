@@ -1,7 +1,7 @@
 //! Kernel `relations` (`glsl/relations.comp`): the parent and child relations built on
 //! the device, in the host's CSR layout, one mode per dispatch (mark the children of
 //! changed clips, count, fill, and the inverse relation). It runs before a solve
-//! ([`crate::gpu::arrange`]), not in the bounce loop's schedule.
+//! ([`crate::device::arrange`]), not in the bounce loop's schedule.
 
 use bytemuck::{Pod, Zeroable};
 

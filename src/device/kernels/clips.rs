@@ -1,7 +1,7 @@
 //! Kernel `clips` (`glsl/clips.comp`): the support clips an arrangement computes, on the
 //! device (`ALGORITHM.md` §3.3): every node's, or after objects moved those of the nodes
 //! a [`crate::hierarchy::ClipSelection`] holds; the changed ones come back. It runs
-//! before a solve ([`crate::gpu::arrange`]), not in the bounce loop's schedule.
+//! before a solve ([`crate::device::arrange`]), not in the bounce loop's schedule.
 
 use bytemuck::{Pod, Zeroable};
 

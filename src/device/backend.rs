@@ -9,11 +9,8 @@ use std::time::Instant;
 use glam::Vec4;
 
 use super::arrange::{ArrangeKernels, Arranged};
-use super::context::Context;
 use super::globals::{LINK_RECORD_BYTES, RAY_BYTES};
 use super::kernels::{Kernels, Recorder};
-use super::pipeline::Specialization;
-use super::profiler::Profiler;
 use super::resources::{cwbvh_of, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use super::schedule::{Active, Schedule};
 use crate::constants::{
@@ -22,6 +19,9 @@ use crate::constants::{
     VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
 };
 use crate::error::{Error, Result};
+use crate::gpu::context::Context;
+use crate::gpu::pipeline::Specialization;
+use crate::gpu::profiler::Profiler;
 use crate::hierarchy::{Arrangement, ClipSelection, Hierarchy};
 use crate::params::{BvhKind, SolverParams, Variant};
 use crate::progress::Progress;
