@@ -9,21 +9,18 @@
 //! solution of a scene file that holds frame k's values, bit for bit on the CPU backend.
 
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::device::backend::{GpuReport, GpuResident};
-use crate::device::GpuBackend;
+use crate::device::GpuReport;
+use crate::engine::Engine;
 use crate::error::{Error, Result};
-use crate::gpu::Context;
 use crate::hierarchy::{Arrangement, Hierarchy};
 use crate::params::{Reach, SolverParams};
 use crate::progress::Progress;
 use crate::scene::Scene;
-use crate::transport::cpu::CpuBackend;
 use crate::transport::Solution;
 
 /// The light keys an edit may set (absolute values, as a `[[light]]` table holds them).
@@ -388,11 +385,9 @@ pub struct Editor {
     pub scene: Scene,
     pub params: SolverParams,
     pub hierarchy: Hierarchy,
-    ctx: Option<Arc<Context>>,
-    /// What stays on the device between solves (GPU backend).
-    gpu: Option<GpuResident>,
-    /// The last CPU solve's links, for a frame that changes only lights.
-    cpu_links: Option<crate::transport::links::Links>,
+    /// Where the solves run, and what stays there between them (the device's state, the
+    /// CPU's last links).
+    engine: Engine,
     pending: Changed,
     /// Where the objects were when the hierarchy was last arranged.
     arranged: Arrangement,
@@ -402,22 +397,20 @@ pub struct Editor {
 
 impl Editor {
     /// Builds the hierarchy of `scene` (the parameters must have `reach = "object"`: see
-    /// [`editing_params`]) for solves on the CPU (`ctx = None`) or the device of `ctx`.
-    pub fn new(scene: Scene, params: SolverParams, ctx: Option<Arc<Context>>, progress: &Progress) -> Result<Editor> {
+    /// [`editing_params`]) for solves where `engine` runs.
+    pub fn new(scene: Scene, params: SolverParams, mut engine: Engine, progress: &Progress) -> Result<Editor> {
         params.validate()?;
         if params.reach() != Reach::Object {
             return Err(Error::param("reach", "editing needs reach = \"object\""));
         }
         let t = Instant::now();
-        let (hierarchy, gpu) = crate::run::build_hierarchy(&scene, &params, ctx.as_ref(), progress)?;
+        let hierarchy = engine.build(&scene, &params, progress)?;
         Ok(Editor {
             arranged: Arrangement::of(&scene),
             scene,
             params,
             hierarchy,
-            ctx,
-            gpu,
-            cpu_links: None,
+            engine,
             pending: Changed::default(),
             seconds_build: t.elapsed().as_secs_f64(),
         })
@@ -442,94 +435,17 @@ impl Editor {
         let all = Instant::now();
         let mut changed = std::mem::take(&mut self.pending);
         let t = Instant::now();
-        // A point or spot light moved into or out of an enclosure changes which sides
-        // get nodes (`reach::ObjectReach`): then, too, the hierarchy is built again.
-        if !changed.rebuild && (!changed.objects.is_empty() || !changed.lights.is_empty()) {
-            if let Some(r) = &self.hierarchy.object_reach {
-                changed.rebuild = r.sides_for(&self.scene) != self.hierarchy.sides;
-            }
-        }
-        if changed.rebuild {
-            self.gpu = None;
-            let (h, gpu) = crate::run::build_hierarchy(&self.scene, &self.params, self.ctx.as_ref(), progress)?;
-            self.hierarchy = h;
-            self.gpu = gpu;
-            changed.clips_computed = self.hierarchy.nodes.len();
-            changed.parents_computed = self.hierarchy.nodes.len();
-        } else if !changed.objects.is_empty() {
-            let moved: Vec<usize> = (0..self.scene.objects.len())
-                .filter(|&o| self.scene.objects[o].transform != self.arranged.objects[o].transform)
-                .collect();
-            let (clips, parents) = match (&self.ctx, self.gpu.as_mut()) {
-                // On the device, where the transport runs.
-                (Some(ctx), Some(r)) => {
-                    let a = r.arrange(
-                        ctx,
-                        &self.scene,
-                        &mut self.hierarchy,
-                        &self.params,
-                        Some((&self.arranged, &moved)),
-                        progress,
-                    );
-                    match a {
-                        Ok(a) => (a.clips_computed, a.parents_computed),
-                        Err(e) => {
-                            // Half arranged: the next solve builds everything again.
-                            self.gpu = None;
-                            self.pending.rebuild = true;
-                            return Err(e);
-                        }
-                    }
-                }
-                _ => self
-                    .hierarchy
-                    .rearrange(&self.scene, &self.arranged, &moved, &self.params, progress),
-            };
-            changed.clips_computed = clips;
-            changed.parents_computed = parents;
-        }
-        self.arranged = Arrangement::of(&self.scene);
+        self.update(&mut changed, progress)?;
         let update = t.elapsed().as_secs_f64();
         // Nothing moved: every gathering ray hits what it hit and reads the node it read in
-        // the last solve, so that solve's links serve this one (relighting).
+        // the last solve, so that solve's links serve this one (relighting). On a device,
+        // only the lights go up after such an edit; after a move the transforms and the
+        // clip selection went up and the changed clips and relations came back
+        // (`GpuResident::arrange`).
         let keep_links = changed.objects.is_empty() && !changed.rebuild;
-        if let (Some(ctx), None) = (&self.ctx, &self.gpu) {
-            // A failed solve left nothing on the device: upload and arrange again.
-            self.gpu = Some(GpuResident::arranged(
-                ctx,
-                &self.scene,
-                &mut self.hierarchy,
-                &self.params,
-                progress,
-            )?);
-        }
-        let (solution, gpu) = match (self.ctx.clone(), self.gpu.take()) {
-            (Some(ctx), Some(r)) => {
-                // Uploaded once; after an edit only the lights go up, and after a move the
-                // transforms and the clip selection; the changed clips and the relations
-                // come back (`GpuResident::arrange`).
-                let mut b = GpuBackend::resume(ctx, r, &self.scene, &self.hierarchy, &self.params)?;
-                if keep_links {
-                    b.keep_links();
-                }
-                let s = crate::transport::solve(&self.params, &mut b, progress)?;
-                let report = b.report.clone();
-                self.gpu = Some(b.suspend());
-                (s, Some(report))
-            }
-            _ => {
-                let mut b = CpuBackend::new(&self.scene, &self.hierarchy, &self.params, progress);
-                match self.cpu_links.take() {
-                    Some(l) if keep_links => {
-                        b.keep_links(l);
-                    }
-                    _ => {}
-                }
-                let s = crate::transport::solve(&self.params, &mut b, progress)?;
-                self.cpu_links = b.take_links();
-                (s, None)
-            }
-        };
+        let (solution, gpu) =
+            self.engine
+                .solve(&self.scene, &mut self.hierarchy, &self.params, keep_links, progress)?;
         let seconds = FrameSeconds {
             update,
             direct: solution.stats.seconds_direct,
@@ -542,5 +458,44 @@ impl Editor {
             changed,
             seconds,
         })
+    }
+
+    /// Brings the hierarchy to the scene's arrangement: built again after a scale change
+    /// or a light that crossed into or out of an enclosure, arranged anew where objects
+    /// moved. Records in `changed` how many clips and parent lists were computed.
+    fn update(&mut self, changed: &mut Changed, progress: &Progress) -> Result<()> {
+        // A point or spot light moved into or out of an enclosure changes which sides
+        // get nodes (`reach::ObjectReach`): then, too, the hierarchy is built again.
+        if !changed.rebuild && (!changed.objects.is_empty() || !changed.lights.is_empty()) {
+            if let Some(r) = &self.hierarchy.object_reach {
+                changed.rebuild = r.sides_for(&self.scene) != self.hierarchy.sides;
+            }
+        }
+        if changed.rebuild {
+            self.engine.forget();
+            self.hierarchy = self.engine.build(&self.scene, &self.params, progress)?;
+            changed.clips_computed = self.hierarchy.nodes.len();
+            changed.parents_computed = self.hierarchy.nodes.len();
+        } else if !changed.objects.is_empty() {
+            let moved: Vec<usize> = (0..self.scene.objects.len())
+                .filter(|&o| self.scene.objects[o].transform != self.arranged.objects[o].transform)
+                .collect();
+            let arranged = self.engine.arrange(
+                &self.scene,
+                &mut self.hierarchy,
+                &self.params,
+                &self.arranged,
+                &moved,
+                progress,
+            );
+            let (clips, parents) = arranged.inspect_err(|_| {
+                // Half arranged: the next solve builds everything again.
+                self.pending.rebuild = true;
+            })?;
+            changed.clips_computed = clips;
+            changed.parents_computed = parents;
+        }
+        self.arranged = Arrangement::of(&self.scene);
+        Ok(())
     }
 }

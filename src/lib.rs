@@ -12,6 +12,7 @@ pub mod cli;
 pub mod constants;
 pub mod device;
 pub mod edit;
+pub mod engine;
 pub mod error;
 pub mod geom;
 pub mod gpu;
@@ -27,6 +28,7 @@ pub mod run;
 pub mod scene;
 pub mod transport;
 
+pub use engine::Engine;
 pub use error::{Error, Result};
 pub use hierarchy::Hierarchy;
 pub use params::{SolverParams, Variant};

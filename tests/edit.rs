@@ -108,7 +108,7 @@ fn assert_same(k: usize, h: &Hierarchy, s: &Solution, fh: &Hierarchy, fs: &Solut
 fn frames_equal_fresh_solves(ctx: Option<Arc<Context>>) {
     let dir = common::tmpdir();
     let (scene, params) = load(dir.path(), "f0.toml", &cornell("", SPOT, SMALL));
-    let mut ed = Editor::new(scene, params, ctx.clone(), &Progress::hidden()).unwrap();
+    let mut ed = Editor::new(scene, params, meshrad::Engine::on(ctx.clone()), &Progress::hidden()).unwrap();
     for (k, (e, short, tall, spot)) in frames().iter().enumerate() {
         ed.apply(e, &format!("frame {k}")).unwrap();
         let f = ed.solve(&Progress::hidden()).unwrap();
@@ -118,7 +118,13 @@ fn frames_equal_fresh_solves(ctx: Option<Arc<Context>>) {
             &format!("fresh{k}.toml"),
             &cornell_with(short, tall, spot, SMALL),
         );
-        let fresh = meshrad::solve(&fresh_scene, &p, ctx.clone(), &Progress::hidden()).unwrap();
+        let fresh = meshrad::solve(
+            &fresh_scene,
+            &p,
+            &mut meshrad::Engine::on(ctx.clone()),
+            &Progress::hidden(),
+        )
+        .unwrap();
         assert_same(k, &ed.hierarchy, &f.solution, &fresh.hierarchy, &fresh.solution);
         // Only what can change is computed again: near the moved block (frame 1), nothing
         // for a light (frame 2); on the GPU only the light (and Globals) cross the bus.
@@ -186,8 +192,14 @@ fn device_clips_match_the_cpu() {
     );
     let dir = common::tmpdir();
     let (scene, params) = load(dir.path(), "c.toml", &cornell("", SPOT, SMALL));
-    let mut cpu = Editor::new(scene.clone(), params.clone(), None, &Progress::hidden()).unwrap();
-    let mut gpu = Editor::new(scene, params, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let mut cpu = Editor::new(
+        scene.clone(),
+        params.clone(),
+        meshrad::Engine::cpu(),
+        &Progress::hidden(),
+    )
+    .unwrap();
+    let mut gpu = Editor::new(scene, params, meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
     let agree = |a: &Hierarchy, b: &Hierarchy, what: &str| {
         assert_eq!(bytes(&a.nodes), bytes(&b.nodes), "{what}: nodes");
         let n = a.nodes.len();
@@ -279,7 +291,7 @@ fn box_pushed_against_the_wall_matches_the_reference() {
     let dir = common::tmpdir();
     let solver = "levels = 5\ncoarsest = 120\nrays = 128\nsender_level = 4\nreach = \"object\"\n";
     let (scene, params) = load(dir.path(), "a.toml", &cornell("", SPOT, solver));
-    let mut ed = Editor::new(scene, params.clone(), None, &Progress::hidden()).unwrap();
+    let mut ed = Editor::new(scene, params.clone(), meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
     let opts = ReferenceOptions {
         samples: 2048,
         ..Default::default()
@@ -323,7 +335,7 @@ fn furnace_with_the_light_moved() {
     );
     let path = meshrad::analytic::furnace(dir.path(), r, 4, rho, [0.0; 3], i, &solver).unwrap();
     let (scene, params) = common::load(&path, &[]);
-    let mut ed = Editor::new(scene, params, None, &Progress::hidden()).unwrap();
+    let mut ed = Editor::new(scene, params, meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
     let (_, eind, _) = meshrad::analytic::furnace_expected(r, rho, i, k);
     for (n, pos) in [[0.0, 0.0, 0.0], [0.35, -0.2, 0.1], [-0.5, 0.3, -0.2]]
         .into_iter()
@@ -370,7 +382,7 @@ fn furnace_with_the_light_moved() {
                 "the furnace file holds the light's position: {text}"
             );
             let (s2, p2) = load(dir.path(), "moved.toml", &text);
-            let fresh = meshrad::solve(&s2, &p2, None, &Progress::hidden()).unwrap();
+            let fresh = meshrad::solve(&s2, &p2, &mut meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
             assert_same(n, &ed.hierarchy, &f.solution, &fresh.hierarchy, &fresh.solution);
         }
     }

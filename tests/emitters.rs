@@ -28,7 +28,7 @@ fn solve_and_render(
     params: &meshrad::SolverParams,
 ) -> (meshrad::Run, meshrad::output::image::Images) {
     let hidden = meshrad::progress::Progress::hidden();
-    let run = meshrad::solve(scene, params, None, &hidden).unwrap();
+    let run = meshrad::solve(scene, params, &mut meshrad::Engine::cpu(), &hidden).unwrap();
     let img = meshrad::output::image::render(scene, &run.hierarchy, &run.solution, params, &hidden);
     (run, img)
 }

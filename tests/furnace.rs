@@ -51,7 +51,7 @@ fn run(variant: Variant, light: [f64; 3], gpu: bool) -> Errors {
         let r = meshrad::solve(
             &scene,
             &params,
-            Some(ctx.clone()),
+            &mut meshrad::Engine::gpu(ctx.clone()),
             &meshrad::progress::Progress::hidden(),
         )
         .unwrap();

@@ -387,7 +387,7 @@ fn run_case(dir: &Path, c: &Case) -> Outcome {
     p.bounces = p.bounces.min(2);
     p.reach_paths = p.reach_paths.min(4096);
     p.candidate_factor = p.candidate_factor.min(8.0);
-    if meshrad::solve(&scene, &params, None, &Progress::hidden()).is_ok() {
+    if meshrad::solve(&scene, &params, &mut meshrad::Engine::cpu(), &Progress::hidden()).is_ok() {
         Outcome::Loaded
     } else {
         Outcome::Refused

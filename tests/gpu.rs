@@ -316,8 +316,8 @@ fn whole_solves_match_cpu() {
         let (s, mut p) = cornell(5, 64, variant);
         p.bounces = 3;
         let ctx = context();
-        let g = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let c = meshrad::solve(&s, &p, None, &Progress::hidden()).unwrap();
+        let g = meshrad::solve(&s, &p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
+        let c = meshrad::solve(&s, &p, &mut meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
         assert_eq!(g.solution.stats.integrals, c.solution.stats.integrals, "{variant:?}");
         for (bg, bc) in g.solution.stats.bounces.iter().zip(&c.solution.stats.bounces) {
             assert_eq!(bg.integrals_per_level, bc.integrals_per_level, "{variant:?}");
@@ -358,8 +358,8 @@ fn whole_solves_match_cpu() {
 fn gpu_solves_are_deterministic() {
     let (s, p) = cornell(4, 32, Variant::Approx);
     let ctx = context();
-    let a = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
-    let b = meshrad::solve(&s, &p, Some(ctx), &Progress::hidden()).unwrap();
+    let a = meshrad::solve(&s, &p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
+    let b = meshrad::solve(&s, &p, &mut meshrad::Engine::gpu(ctx), &Progress::hidden()).unwrap();
     assert!(a.solution.values.indirect == b.solution.values.indirect);
     let _ = Vec4::ZERO;
 }
@@ -381,7 +381,7 @@ fn geometry_over_128_mib_solves() {
     let bytes = s.tris.len() * std::mem::size_of::<meshrad::layout::Tri>();
     assert!(bytes > 128 << 20, "only {bytes} bytes of triangles");
     let ctx = context();
-    let r = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
+    let r = meshrad::solve(&s, &p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
     let (_, eind, _) = meshrad::analytic::furnace_expected(1.0, 0.5, 1.0, 1);
     let h = &r.hierarchy;
     let l = h.level_range(1);
@@ -423,8 +423,8 @@ fn cwbvh_matches_bvh2() {
     };
     for which in 0..2 {
         let ((a, pa), (b, pb)) = (load(which, "bvh2"), load(which, "cwbvh"));
-        let ra = meshrad::solve(&a, &pa, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let rb = meshrad::solve(&b, &pb, Some(ctx.clone()), &Progress::hidden()).unwrap();
+        let ra = meshrad::solve(&a, &pa, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
+        let rb = meshrad::solve(&b, &pb, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
         let nodes = |r: &meshrad::Run| r.gpu.as_ref().unwrap().cwbvh_nodes;
         assert!(
             nodes(&ra) == 0 && nodes(&rb) > 0,
@@ -564,8 +564,8 @@ fn textured_gltf_solves_match_cpu() {
     let (s, p) = common::load(&path, &[]);
     assert!(s.textured());
     let ctx = context();
-    let g = meshrad::solve(&s, &p, Some(ctx.clone()), &Progress::hidden()).unwrap();
-    let c = meshrad::solve(&s, &p, None, &Progress::hidden()).unwrap();
+    let g = meshrad::solve(&s, &p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
+    let c = meshrad::solve(&s, &p, &mut meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
     assert_eq!(g.solution.stats.integrals, c.solution.stats.integrals);
     let (gi, ci) = (&g.solution.values.indirect, &c.solution.values.indirect);
     let (mut e2, mut r2) = (0.0f64, 0.0f64);
@@ -644,8 +644,8 @@ fn emitters_and_sky_solve_as_on_the_cpu() {
     let (s, p) = common::load(&map, &[]);
     cases.push(("environment map".into(), s, p));
     for (name, s, p) in &cases {
-        let g = meshrad::solve(s, p, Some(ctx.clone()), &Progress::hidden()).unwrap();
-        let c = meshrad::solve(s, p, None, &Progress::hidden()).unwrap();
+        let g = meshrad::solve(s, p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
+        let c = meshrad::solve(s, p, &mut meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
         let (gd, cd) = (&g.solution.values.direct, &c.solution.values.direct);
         let (rms_d, worst_d) = compare(gd, cd);
         let (rms_i, worst_i) = compare(&g.solution.values.indirect, &c.solution.values.indirect);
@@ -723,7 +723,7 @@ fn device_dart_throwing_gives_the_host_nodes() {
         let host = Hierarchy::build_unarranged(&scene, &p, &hidden).unwrap();
         let mut pd = p.clone();
         pd.dart_throwing = Some(meshrad::params::DartThrowing::Device);
-        let (dev, _) = meshrad::run::build_hierarchy(&scene, &pd, Some(&ctx), &hidden).unwrap();
+        let dev = meshrad::Engine::gpu(ctx.clone()).build(&scene, &pd, &hidden).unwrap();
         assert_eq!(host.stats.poisson_on, "host");
         assert_eq!(dev.stats.poisson_on, "device", "{name}");
         assert!(dev.stats.poisson_rounds > 0 && host.stats.poisson_rounds == 0);

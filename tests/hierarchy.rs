@@ -296,8 +296,12 @@ fn links_give_the_traced_answer() {
     let (s, mut p) = cornell(4);
     p.rays = 64;
     let h = Hierarchy::build(&s, &p, &Progress::hidden()).unwrap();
-    let (cold, _) = meshrad::run::transport_on(&s, &p, &h, None, 0, &Progress::hidden()).unwrap();
-    let (warm, _) = meshrad::run::transport_on(&s, &p, &h, None, 1, &Progress::hidden()).unwrap();
+    let (cold, _) = meshrad::Engine::cpu()
+        .transport(&s, &p, &h, 0, &Progress::hidden())
+        .unwrap();
+    let (warm, _) = meshrad::Engine::cpu()
+        .transport(&s, &p, &h, 1, &Progress::hidden())
+        .unwrap();
     assert!(cold.values.indirect == warm.values.indirect, "a warm solve differs");
     assert_eq!(cold.stats.links, warm.stats.links);
     assert_eq!(cold.stats.rays_traced, warm.stats.rays_traced);

@@ -87,7 +87,13 @@ fn unneeded_work_is_skipped_and_reported() {
                 .expect("a Vulkan device"),
             )
         });
-        let r = meshrad::solve(&scene, &params, ctx, &meshrad::progress::Progress::hidden()).unwrap();
+        let r = meshrad::solve(
+            &scene,
+            &params,
+            &mut meshrad::Engine::on(ctx),
+            &meshrad::progress::Progress::hidden(),
+        )
+        .unwrap();
         let st = &r.solution.stats;
         assert!(st.nodes_lit_per_light[0] > 0);
         assert_eq!(st.nodes_lit_per_light[1], 0);

@@ -157,7 +157,13 @@ fn albedo_near_one_converges() {
                 })
                 .expect("a Vulkan device"),
             );
-            let r = meshrad::solve(&scene, &params, Some(ctx.clone()), &Progress::hidden()).unwrap();
+            let r = meshrad::solve(
+                &scene,
+                &params,
+                &mut meshrad::Engine::gpu(ctx.clone()),
+                &Progress::hidden(),
+            )
+            .unwrap();
             assert_eq!(ctx.validation_errors(), 0);
             (r.hierarchy, r.solution)
         } else {

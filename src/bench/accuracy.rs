@@ -10,15 +10,14 @@
 
 use std::fmt::Write as _;
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
 
 use super::{area_probes, camera_probes, measure, read_at, reference_at, Measured};
+use crate::engine::Engine;
 use crate::error::{Error, Result};
-use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::metrics::{indirect_error, ErrorStats};
 use crate::output::probe::Probe;
@@ -233,14 +232,14 @@ pub fn mark_pareto(rows: &mut [Row]) {
     }
 }
 
-/// Runs the sweep for one scene on the given backends (`None` = CPU): meshrad at every
+/// Runs the sweep for one scene on the given backends: meshrad at every
 /// configuration around `base`, then path tracing at increasing samples, each against the
 /// same reference at the same probe points.
 pub fn sweep(
     name: &str,
     scene: &Scene,
     base: &SolverParams,
-    backends: &[Option<Arc<Context>>],
+    backends: &[Engine],
     opts: &AccuracyOptions,
     dir: &Path,
     progress: &Progress,
@@ -315,7 +314,7 @@ fn meshrad_rows(
     name: &str,
     scene: &Scene,
     base: &SolverParams,
-    backends: &[Option<Arc<Context>>],
+    backends: &[Engine],
     opts: &AccuracyOptions,
     area: &Points,
     camera: &Points,
@@ -375,7 +374,7 @@ fn meshrad_rows(
         for (b, ctx) in backends.iter().enumerate() {
             progress.stage(&format!(
                 "{name}: {label} on {}",
-                ctx.as_ref().map_or("cpu".into(), |c| c.info.name.clone())
+                ctx.context().map_or("cpu".into(), |c| c.info.name.clone())
             ));
             let m = match &last[b] {
                 Some((k, m, sol)) if *k == solve_key => {
@@ -387,15 +386,7 @@ fn meshrad_rows(
                     }
                 }
                 _ => {
-                    let (m, sol) = measure(
-                        scene,
-                        &params,
-                        h,
-                        ctx.clone(),
-                        &both,
-                        ctx.is_some(),
-                        &Progress::hidden(),
-                    )?;
+                    let (m, sol) = measure(scene, &params, h, ctx, &both, ctx.is_gpu(), &Progress::hidden())?;
                     last[b] = Some((solve_key.clone(), m.clone(), sol));
                     m
                 }
@@ -408,7 +399,7 @@ fn meshrad_rows(
                     .collect();
                 let file = dir.join(format!(
                     "{name}-{slug}-{}-points.ply",
-                    if ctx.is_some() { "gpu" } else { "cpu" }
+                    if ctx.is_gpu() { "gpu" } else { "cpu" }
                 ));
                 write_bytes(&file, error_map(&area.probes, at_area, &area.reference).into_bytes())?;
             }

@@ -7,16 +7,15 @@
 //! solve's load / build / rest.
 
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
 
 use crate::edit::{self, Edit, Editor, ObjectEdit};
+use crate::engine::Engine;
 use crate::error::{Error, Result};
 use crate::geom::Transform;
-use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::output::image;
 use crate::params::SolverParams;
@@ -190,23 +189,23 @@ fn outputs(scene: &Scene, h: &Hierarchy, sol: &crate::Solution, p: &SolverParams
     Ok(t.elapsed().as_secs_f64())
 }
 
-/// Runs the frames of `s` on the CPU (`ctx = None`) or a device.
+/// Runs the frames of `s` where `engine` runs (each solve on a fresh copy of it).
 pub fn run_scene(
     s: &EditScene,
     dir: &Path,
     n: usize,
     smoke: bool,
-    ctx: Option<Arc<Context>>,
+    engine: &Engine,
     progress: &Progress,
 ) -> Result<Vec<FrameRow>> {
-    let backend = ctx
-        .as_ref()
+    let backend = engine
+        .context()
         .map_or("cpu".to_string(), |c| format!("gpu ({})", c.info.name));
     progress.stage(&format!("{}: hierarchy ({backend})", s.name));
     let (scene, params) = load(s, dir, smoke)?;
     let edits = frames(s.name, &scene, n)?;
     let hidden = Progress::hidden();
-    let mut ed = Editor::new(scene, params, ctx.clone(), &hidden)?;
+    let mut ed = Editor::new(scene, params, engine.fresh(), &hidden)?;
     let mut rows = Vec::new();
     for (k, e) in edits.iter().enumerate() {
         progress.stage(&format!("{}: frame {k}/{n} ({backend})", s.name));
@@ -224,18 +223,13 @@ pub fn run_scene(
             edit::apply(&mut fresh, ej, &format!("frame {j}"))?;
         }
         // As `meshrad solve` does it: on a device, the build ends with the upload and the
-        // arrangement there (`run::build_hierarchy`); the rest is the transport.
+        // arrangement there (`Engine::build`); the rest is the transport.
+        let mut there = engine.fresh();
         let t = Instant::now();
-        let (h, resident) = crate::run::build_hierarchy(&fresh, &p, ctx.as_ref(), &hidden)?;
+        let mut h = there.build(&fresh, &p, &hidden)?;
         let fresh_build = t.elapsed().as_secs_f64();
         let t = Instant::now();
-        let sol = match (ctx.clone(), resident) {
-            (Some(c), Some(r)) => {
-                let mut b = crate::device::GpuBackend::resume(c, r, &fresh, &h, &p)?;
-                crate::transport::solve(&p, &mut b, &hidden)?
-            }
-            _ => crate::run::transport_on(&fresh, &p, &h, None, 0, &hidden)?.0,
-        };
+        let sol = there.solve(&fresh, &mut h, &p, false, &hidden)?.0;
         outputs(&fresh, &h, &sol, &p)?;
         let fresh_rest = t.elapsed().as_secs_f64();
         rows.push(FrameRow {

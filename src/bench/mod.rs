@@ -9,17 +9,16 @@ pub mod plot;
 pub mod table2;
 
 use std::path::Path;
-use std::sync::Arc;
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
 use serde::Serialize;
 
+use crate::engine::Engine;
 use crate::error::{Error, Result};
 use crate::geom::ray::tri_normal;
 use crate::geom::rng::Rng;
 use crate::geom::transform::{xform_point, xform_vector};
-use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::output::probe::{self, Probe};
 use crate::params::SolverParams;
@@ -192,19 +191,19 @@ pub fn read_at(
     (values, per_point * pixels)
 }
 
-/// Solves `scene` for `params` with hierarchy `h` on the CPU (`ctx = None`) or a GPU and evaluates the
+/// Solves `scene` for `params` with hierarchy `h` where `engine` runs and evaluates the
 /// probes. With `warmup`, a first solve on the same backend is discarded (lavapipe
 /// compiles pipelines at their first dispatch).
 pub fn measure(
     scene: &Scene,
     params: &SolverParams,
     h: &Hierarchy,
-    ctx: Option<Arc<Context>>,
+    engine: &Engine,
     probes: &[Probe],
     warmup: bool,
     progress: &Progress,
 ) -> Result<(Measured, Solution)> {
-    let (sol, gpu) = crate::run::transport_on(scene, params, h, ctx, warmup as u32, progress)?;
+    let (sol, gpu) = engine.transport(scene, params, h, warmup as u32, progress)?;
     // Upload and pipelines (preprocessing): the part of the GPU's wall time that is not
     // the solve it reports.
     let setup = gpu

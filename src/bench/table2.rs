@@ -8,14 +8,13 @@
 
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 use std::time::Instant;
 
 use serde::Serialize;
 
 use super::{camera_probes, measure, reference_at, Measured};
+use crate::engine::Engine;
 use crate::error::{Error, Result};
-use crate::gpu::Context;
 use crate::hierarchy::Hierarchy;
 use crate::metrics::{indirect_error, ErrorStats};
 use crate::output::{self, image};
@@ -110,14 +109,14 @@ pub fn end_to_end(
     spec: &SceneSpec,
     opts: &TableOptions,
     variant: Variant,
-    ctx: Option<Arc<Context>>,
+    engine: &Engine,
     dir: &Path,
 ) -> Result<Cold> {
     let hidden = Progress::hidden();
     let t = Instant::now();
     let (scene, mut params) = load(spec, &opts.scene_dir, opts.smoke)?;
     params.variant = variant;
-    let run = crate::solve(&scene, &params, ctx, &hidden)?;
+    let run = crate::solve(&scene, &params, &mut engine.fresh(), &hidden)?;
     let img = image::render(&scene, &run.hierarchy, &run.solution, &params, &hidden);
     let mut files = output::Outputs::default();
     image::encode_all(dir, &img, &mut files)?;
@@ -202,7 +201,7 @@ pub fn load(spec: &SceneSpec, dir: &Path, smoke: bool) -> Result<(Scene, SolverP
 /// Runs the table for one scene.
 pub fn run_scene(
     spec: &SceneSpec,
-    gpu: Option<Arc<Context>>,
+    gpu: Option<&Engine>,
     opts: &TableOptions,
     cache_dir: &Path,
     progress: &Progress,
@@ -229,14 +228,14 @@ pub fn run_scene(
     ));
     let (reference, seconds_reference) = reference_at(&scene, &probes, &ref_opts, &cache, progress)?;
     let mut columns = Vec::new();
-    let mut plan: Vec<(&str, Option<Arc<Context>>, Variant)> = Vec::new();
+    let mut plan: Vec<(&str, Engine, Variant)> = Vec::new();
     if !opts.skip_cpu {
-        plan.push(("CPU original", None, Variant::Original));
+        plan.push(("CPU original", Engine::cpu(), Variant::Original));
     }
-    if let Some(c) = &gpu {
-        plan.push(("GPU direct", Some(c.clone()), Variant::Original));
-        plan.push(("GPU modified", Some(c.clone()), Variant::Modified));
-        plan.push(("GPU approx", Some(c.clone()), Variant::Approx));
+    if let Some(g) = gpu {
+        plan.push(("GPU direct", g.fresh(), Variant::Original));
+        plan.push(("GPU modified", g.fresh(), Variant::Modified));
+        plan.push(("GPU approx", g.fresh(), Variant::Approx));
     }
     let images = cache_dir.join(format!(
         "{}{}-images",
@@ -244,13 +243,13 @@ pub fn run_scene(
         if opts.smoke { "-smoke" } else { "" }
     ));
     output::ensure_dir(&images)?;
-    for (name, ctx, variant) in plan {
+    for (name, engine, variant) in plan {
         progress.stage(&format!("{}: {name}, end to end", spec.name));
-        let cold = end_to_end(spec, opts, variant, ctx.clone(), &images)?;
+        let cold = end_to_end(spec, opts, variant, &engine, &images)?;
         progress.stage(&format!("{}: {name}", spec.name));
         params.variant = variant;
-        let warm = ctx.is_some();
-        let (m, _) = measure(&scene, &params, &h, ctx, &probes, warm, &Progress::hidden())?;
+        let warm = engine.is_gpu();
+        let (m, _) = measure(&scene, &params, &h, &engine, &probes, warm, &Progress::hidden())?;
         let error = indirect_error(&m.values, &reference);
         columns.push(Column {
             name: name.into(),

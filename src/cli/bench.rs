@@ -7,6 +7,7 @@ use anyhow::{Context as _, Result};
 use clap::{Args, Subcommand};
 
 use crate::bench::{accuracy, plot, table2};
+use crate::engine::Engine;
 use crate::gpu::{Context, ContextOptions};
 use crate::output;
 use crate::params::SolverParams;
@@ -160,14 +161,14 @@ pub struct Table2Args {
 }
 
 impl Backends {
-    /// The backends to run: `None` for the CPU, the device's context for the GPU.
-    fn contexts(self, device: Option<&str>) -> Result<Vec<Option<Arc<Context>>>> {
+    /// The engines to run on: the CPU, the device, or both.
+    fn engines(self, device: Option<&str>) -> Result<Vec<Engine>> {
         let mut v = Vec::new();
         if self != Backends::Gpu {
-            v.push(None);
+            v.push(Engine::cpu());
         }
         if self != Backends::Cpu {
-            v.push(Some(gpu(device)?));
+            v.push(Engine::gpu(gpu(device)?));
         }
         Ok(v)
     }
@@ -192,7 +193,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
 fn run_accuracy(a: AccuracyArgs) -> Result<()> {
     let progress = Progress::new(a.quiet);
     output::ensure_dir(&a.out)?;
-    let backends = a.backend.contexts(a.device.as_deref())?;
+    let backends = a.backend.engines(a.device.as_deref())?;
     let opts = accuracy::AccuracyOptions {
         probes: a.probes,
         reference_samples: a.reference_samples,
@@ -327,8 +328,8 @@ fn run_coverage(a: CoverageArgs) -> Result<()> {
 fn run_nodes(a: NodesArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
     let (scene, params) = super::load_scene(a.scene.as_deref(), &a.solver)?;
-    let ctx = super::gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = crate::solve(&scene, &params, ctx, &progress)?;
+    let mut engine = super::engine(&a.solver, a.solver.quiet)?;
+    let run = crate::solve(&scene, &params, &mut engine, &progress)?;
     progress.stage("reference at nodes");
     let opts = crate::reference::ReferenceOptions {
         samples: a.reference_samples,
@@ -402,28 +403,31 @@ fn run_edit(a: EditArgs) -> Result<()> {
         anyhow::bail!("--frames {}: at least 2 (the scene as loaded, then edits)", a.frames);
     }
     output::ensure_dir(&a.out)?;
-    let backends = a.backend.contexts(a.device.as_deref())?;
+    let backends = a.backend.engines(a.device.as_deref())?;
     let mut rows = Vec::new();
     for name in &a.scenes {
         let spec = edit::SCENES
             .iter()
             .find(|s| s.name == name)
             .with_context(|| format!("--scenes: unknown scene `{name}` (cornell, buddha, sponza)"))?;
-        for ctx in &backends {
+        for engine in &backends {
             rows.extend(edit::run_scene(
                 spec,
                 &a.scene_dir,
                 a.frames,
                 a.smoke,
-                ctx.clone(),
+                engine,
                 &progress,
             )?);
         }
     }
     progress.finish();
-    let device = backends.iter().flatten().next().map_or("no GPU".to_string(), |c| {
-        format!("{} ({} {})", c.info.name, c.info.driver_name, c.info.driver_info)
-    });
+    let device = backends
+        .iter()
+        .find_map(Engine::context)
+        .map_or("no GPU".to_string(), |c| {
+            format!("{} ({} {})", c.info.name, c.info.driver_name, c.info.driver_info)
+        });
     let text = format!(
         "Device: {device}; CPU: {} threads. Seconds, median / 95th percentile over the re-solve frames.\n\n{}",
         rayon::current_num_threads(),
@@ -439,7 +443,7 @@ fn run_table2(a: Table2Args) -> Result<()> {
     let progress = Progress::new(a.quiet);
     output::ensure_dir(&a.out)?;
     let ctx = match gpu(a.device.as_deref()) {
-        Ok(c) => Some(c),
+        Ok(c) => Some(Engine::gpu(c)),
         Err(e) => {
             eprintln!("note: no GPU columns: {e:#}");
             None
@@ -462,16 +466,19 @@ fn run_table2(a: Table2Args) -> Result<()> {
             .iter()
             .find(|s| s.name == name)
             .with_context(|| format!("unknown scene `{name}` (cornell, buddha, buddha1m, sponza)"))?;
-        tables.push(table2::run_scene(spec, ctx.clone(), &opts, &a.out, &progress)?);
+        tables.push(table2::run_scene(spec, ctx.as_ref(), &opts, &a.out, &progress)?);
     }
     progress.finish();
     let md = table2::markdown(&tables);
-    let device = ctx.as_ref().map_or("no GPU".to_string(), |c| {
-        format!(
-            "{} ({} {}, Vulkan {})",
-            c.info.name, c.info.driver_name, c.info.driver_info, c.info.api_version
-        )
-    });
+    let device = ctx
+        .as_ref()
+        .and_then(Engine::context)
+        .map_or("no GPU".to_string(), |c| {
+            format!(
+                "{} ({} {}, Vulkan {})",
+                c.info.name, c.info.driver_name, c.info.driver_info, c.info.api_version
+            )
+        });
     let text = format!("Device: {device}; CPU: {} threads.\n{md}", rayon::current_num_threads());
     std::fs::write(a.out.join("table2.md"), &text).context("writing table2.md")?;
     output::write_json(&a.out.join("table2.json"), &tables)?;

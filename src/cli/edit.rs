@@ -162,8 +162,8 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         }
     }
     output::check_outputs(&planned, &inputs)?;
-    let ctx = super::gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let mut ed = Editor::new(scene, params, ctx, &progress)?;
+    let engine = super::engine(&a.solver, a.solver.quiet)?;
+    let mut ed = Editor::new(scene, params, engine, &progress)?;
     if !a.solver.quiet {
         eprintln!(
             "hierarchy: {} nodes in {:.2} s (built once)",
@@ -367,9 +367,9 @@ pub fn session(a: SessionArgs) -> Result<()> {
     let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, true);
     let params = edit::editing_params(&params, "session")?;
-    let ctx = super::gpu_context(a.solver.backend, a.solver.device.as_deref(), true)?;
+    let engine = super::engine(&a.solver, true)?;
     let inputs = scene.report.inputs.clone();
-    let ed = Editor::new(scene, params, ctx, &progress)?;
+    let ed = Editor::new(scene, params, engine, &progress)?;
     let mut s = Session {
         ed,
         last: None,

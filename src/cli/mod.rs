@@ -15,7 +15,8 @@ use serde::Serialize;
 
 use std::sync::Arc;
 
-use crate::device::backend::GpuReport;
+use crate::device::GpuReport;
+use crate::engine::Engine;
 use crate::gpu::{list_devices, Context, ContextOptions};
 use crate::hierarchy::{Hierarchy, HierarchyStats};
 use crate::limits::Limits;
@@ -297,6 +298,13 @@ impl SceneSummary {
     }
 }
 
+/// Where the flags say the work runs, within the limits they set: the CPU, or the device
+/// [`gpu_context`] picks. Errors and notes as there (`quiet` silences the notes).
+pub fn engine(args: &SolverArgs, quiet: bool) -> Result<Engine> {
+    let ctx = gpu_context(args.backend, args.device.as_deref(), quiet)?;
+    Ok(Engine::on(ctx).within(args.limits()?))
+}
+
 /// The Vulkan context `choice` asks for: `None` for the CPU. `auto` takes a hardware
 /// device (GPU); on a machine whose only device is a software one (lavapipe) the CPU
 /// backend is faster, so `auto` takes the CPU there, and says why on stderr.
@@ -439,8 +447,8 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         planned.push(("--export-nodes", p.clone()));
     }
     output::check_outputs(&planned, &scene.report.inputs)?;
-    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = crate::solve(&scene, &params, ctx, &progress)?;
+    // The engine (and what the solve left on the device) goes before the outputs.
+    let run = crate::solve(&scene, &params, &mut engine(&a.solver, a.solver.quiet)?, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
@@ -507,8 +515,7 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
         inputs.push(a.points.clone());
         output::check_outputs(&[("--out", p.clone())], &inputs)?;
     }
-    let ctx = gpu_context(a.solver.backend, a.solver.device.as_deref(), a.solver.quiet)?;
-    let run = crate::solve(&scene, &params, ctx, &progress)?;
+    let run = crate::solve(&scene, &params, &mut engine(&a.solver, a.solver.quiet)?, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);
     let text = probe::csv(&probes, &values);

@@ -12,6 +12,7 @@ use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, o
 use crate::geom::transform::{xform_point, xform_vector};
 use crate::geom::Ray;
 use crate::hierarchy::Hierarchy;
+use crate::limits::Limits;
 use crate::params::{SolverParams, Variant};
 use crate::progress::Progress;
 use crate::scene::Scene;
@@ -194,6 +195,8 @@ pub struct CpuBackend<'a> {
     /// Each gathering ray traced once per solve (`links`); `None` where the variant's
     /// reads depend on more than one node or `link_memory` is 0.
     links: Option<Links>,
+    /// The bytes the links may take ([`link_capacity`] within the run's limits).
+    link_bytes: u64,
     /// The links were handed over from an earlier solve of the same geometry
     /// ([`CpuBackend::keep_links`]): the next solve reads them instead of dropping them.
     keep_links: bool,
@@ -206,8 +209,8 @@ pub struct CpuBackend<'a> {
 
 /// The bytes the links may take: `link_memory` MiB, at most what the run's memory limit
 /// leaves after the planned parts.
-fn link_capacity(scene: &Scene, p: &SolverParams) -> u64 {
-    let left = scene.limits.max_memory as f64 - scene.report.planned_bytes;
+fn link_capacity(scene: &Scene, p: &SolverParams, limits: &Limits) -> u64 {
+    let left = limits.max_memory as f64 - scene.report.planned_bytes;
     ((p.link_memory as u64) << 20).min(left.max(0.0) as u64)
 }
 
@@ -255,7 +258,13 @@ fn sparse_children(h: &Hierarchy, k: u32) -> (Vec<u32>, Vec<u32>) {
 }
 
 impl<'a> CpuBackend<'a> {
+    /// The backend within the default limits ([`Limits::default`]).
     pub fn new(scene: &'a Scene, h: &'a Hierarchy, p: &SolverParams, progress: &Progress) -> Self {
+        CpuBackend::within(scene, h, p, &Limits::default(), progress)
+    }
+
+    /// The backend within `limits` (the links are planned within `max_memory`).
+    pub fn within(scene: &'a Scene, h: &'a Hierarchy, p: &SolverParams, limits: &Limits, progress: &Progress) -> Self {
         let n = h.nodes.len();
         CpuBackend {
             scene,
@@ -272,7 +281,8 @@ impl<'a> CpuBackend<'a> {
             mean_direct: Vec3::ZERO,
             direct_error: None,
             links: (p.variant == Variant::Approx && p.link_memory > 0)
-                .then(|| Links::new(n, p.rays as usize, link_capacity(scene, p))),
+                .then(|| Links::new(n, p.rays as usize, link_capacity(scene, p, limits))),
+            link_bytes: link_capacity(scene, p, limits),
             keep_links: false,
             sparse_children: sparse_children(h, if p.variant.is_delta() { 0 } else { p.sparse_parents }),
             progress: progress.clone(),
@@ -284,12 +294,7 @@ impl<'a> CpuBackend<'a> {
     /// they read are the same, `ALGORITHM.md` §5.6), for the next solve to read instead of
     /// tracing. Returns whether they were taken (they fit this backend).
     pub fn keep_links(&mut self, links: Links) -> bool {
-        let fits = self.links.is_some()
-            && links.fits(
-                self.h.nodes.len(),
-                self.p.rays as usize,
-                link_capacity(self.scene, &self.p),
-            );
+        let fits = self.links.is_some() && links.fits(self.h.nodes.len(), self.p.rays as usize, self.link_bytes);
         if fits {
             self.links = Some(links);
             self.keep_links = true;

@@ -28,7 +28,7 @@ pub fn load(path: &Path, overrides: &[(&str, &str)]) -> (Scene, SolverParams) {
 
 /// Hierarchy and CPU solution of a scene.
 pub fn solve_cpu(scene: &Scene, params: &SolverParams) -> (Hierarchy, Solution) {
-    let r = meshrad::solve(scene, params, None, &Progress::hidden()).expect("solve");
+    let r = meshrad::solve(scene, params, &mut meshrad::Engine::cpu(), &Progress::hidden()).expect("solve");
     (r.hierarchy, r.solution)
 }
 
