@@ -11,7 +11,7 @@ pub mod bench;
 pub mod cli;
 pub mod constants;
 pub mod device;
-pub mod edit;
+pub mod editor;
 pub mod engine;
 pub mod error;
 pub mod geom;

@@ -8,7 +8,7 @@ use crate::error::{Error, Result};
 pub use crate::constants::MAX_LEVELS;
 
 /// The three variants of the paper's Table 2.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Variant {
     /// Delta hierarchy (Lehtinen et al.), exact reconstruction over levels 0..=s.
@@ -39,7 +39,7 @@ impl Variant {
 }
 
 /// The BVH the GPU traverses (the CPU's rays always traverse the CWBVH).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum BvhKind {
     /// Binary BVH, 48-byte nodes.
@@ -49,7 +49,7 @@ pub enum BvhKind {
 }
 
 /// Where the GPU backend throws the Poisson-disk levels' darts (`ALGORITHM.md` §3.2).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum DartThrowing {
     /// On the host's cores, as the CPU backend does.
@@ -60,7 +60,7 @@ pub enum DartThrowing {
 }
 
 /// What decides which surface sides get nodes (`ALGORITHM.md` §3, §6).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Reach {
     /// Light paths from the scene's lights through the whole arrangement: only the sides

@@ -11,7 +11,7 @@ use std::process::{Command, Stdio};
 use std::sync::Arc;
 
 use meshrad::bench::area_probes;
-use meshrad::edit::{Edit, Editor};
+use meshrad::editor::{Edit, Editor};
 use meshrad::gpu::{Context, ContextOptions};
 use meshrad::metrics::indirect_error;
 use meshrad::progress::Progress;

@@ -4,7 +4,7 @@
 //! looks), the cached Monte Carlo reference at them, and a timed solve.
 
 pub mod accuracy;
-pub mod edit;
+pub mod edit_vs_fresh;
 pub mod plot;
 pub mod table2;
 

@@ -397,7 +397,7 @@ fn run_nodes(a: NodesArgs) -> Result<()> {
 }
 
 fn run_edit(a: EditArgs) -> Result<()> {
-    use crate::bench::edit;
+    use crate::bench::edit_vs_fresh;
     let progress = Progress::new(a.quiet);
     if a.frames < 2 {
         anyhow::bail!("--frames {}: at least 2 (the scene as loaded, then edits)", a.frames);
@@ -406,12 +406,12 @@ fn run_edit(a: EditArgs) -> Result<()> {
     let backends = a.backend.engines(a.device.as_deref())?;
     let mut rows = Vec::new();
     for name in &a.scenes {
-        let spec = edit::SCENES
+        let spec = edit_vs_fresh::SCENES
             .iter()
             .find(|s| s.name == name)
             .with_context(|| format!("--scenes: unknown scene `{name}` (cornell, buddha, sponza)"))?;
         for engine in &backends {
-            rows.extend(edit::run_scene(
+            rows.extend(edit_vs_fresh::run_scene(
                 spec,
                 &a.scene_dir,
                 a.frames,
@@ -431,10 +431,10 @@ fn run_edit(a: EditArgs) -> Result<()> {
     let text = format!(
         "Device: {device}; CPU: {} threads. Seconds, median / 95th percentile over the re-solve frames.\n\n{}",
         rayon::current_num_threads(),
-        edit::markdown(&rows)
+        edit_vs_fresh::markdown(&rows)
     );
     std::fs::write(a.out.join("edit.md"), &text).context("writing edit.md")?;
-    std::fs::write(a.out.join("edit.csv"), edit::csv(&rows)).context("writing edit.csv")?;
+    std::fs::write(a.out.join("edit.csv"), edit_vs_fresh::csv(&rows)).context("writing edit.csv")?;
     println!("{text}");
     Ok(())
 }

@@ -1,8 +1,8 @@
 //! The `meshrad` command line: `solve` (the default), `probe`, `animate`, `session`,
 //! `devices`, `reference`, `bench`.
 
+mod animate_session;
 mod bench;
-mod edit;
 mod reference;
 
 use std::path::{Path, PathBuf};
@@ -47,10 +47,10 @@ enum Command {
     Probe(ProbeArgs),
     /// Solve a sequence of frames that move objects and change lights: hierarchies are
     /// built once, each frame applies its edits and re-solves.
-    Animate(edit::AnimateArgs),
+    Animate(animate_session::AnimateArgs),
     /// The modify-review cycle driven by JSON lines on stdin (`set`, `solve`, `probe`,
     /// `render`, `stats`), one JSON answer per line on stdout.
-    Session(edit::SessionArgs),
+    Session(animate_session::SessionArgs),
     /// List the Vulkan devices, their drivers, and whether meshrad can use them.
     Devices,
     /// Brute-force Monte Carlo reference (no hierarchy) at points or from the camera.
@@ -79,7 +79,7 @@ pub struct SolverArgs {
     pub backend: BackendChoice,
     /// Hierarchy variant (paper Table 2).
     #[arg(long, value_enum)]
-    pub variant: Option<Variant>,
+    pub variant: Option<VariantArg>,
     /// Bounces of indirect light.
     #[arg(long)]
     pub bounces: Option<u32>,
@@ -158,8 +158,8 @@ pub fn main() -> ExitCode {
         }),
         Some(Command::Solve(a)) => solve_cmd(a),
         Some(Command::Probe(a)) => probe_cmd(a),
-        Some(Command::Animate(a)) => edit::animate(a),
-        Some(Command::Session(a)) => edit::session(a),
+        Some(Command::Animate(a)) => animate_session::animate(a),
+        Some(Command::Session(a)) => animate_session::session(a),
         Some(Command::Devices) => devices_cmd(),
         Some(Command::Reference(a)) => reference::run(a),
         Some(Command::Bench(b)) => bench::run(b),
@@ -188,7 +188,7 @@ impl SolverArgs {
             o.push((k, v));
             Ok(())
         };
-        if let Some(v) = self.variant {
+        if let Some(v) = self.variant.map(Variant::from) {
             add(
                 "variant".into(),
                 toml::Value::String(v.name().into()),
@@ -211,6 +211,28 @@ impl SolverArgs {
             add(k.trim().to_string(), value, format!("--set {s}"))?;
         }
         Ok(o)
+    }
+}
+
+/// `--variant`: the library's [`Variant`] as the command line spells it (the library's
+/// parameters do not know the CLI's parser).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum VariantArg {
+    /// Delta hierarchy (Lehtinen et al.), exact reconstruction over levels 0..=s.
+    Original,
+    /// Absolute hierarchy (paper §5), exact Shepard reconstruction on the sender level.
+    Modified,
+    /// Absolute hierarchy, first kd-tree leaf with normal rejection (paper §5.1).
+    Approx,
+}
+
+impl From<VariantArg> for Variant {
+    fn from(v: VariantArg) -> Variant {
+        match v {
+            VariantArg::Original => Variant::Original,
+            VariantArg::Modified => Variant::Modified,
+            VariantArg::Approx => Variant::Approx,
+        }
     }
 }
 

@@ -102,7 +102,7 @@ pub struct GpuBackend<'a> {
     pub report: GpuReport,
 }
 
-/// What stays on the device between the solves of an editing session (`crate::edit`):
+/// What stays on the device between the solves of an editing session (`crate::editor`):
 /// pipelines, the scene's triangles, BVHs and textures, the hierarchy's nodes and
 /// kd-trees, the per-node state. [`GpuBackend::resume`] uploads only what an edit changed.
 pub struct GpuResident {

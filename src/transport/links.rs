@@ -23,7 +23,7 @@
 use glam::{Vec3, Vec4, Vec4Swizzles};
 use serde::Serialize;
 
-use super::cpu::{Estimator, Gathered};
+use super::estimator::{Estimator, Gathered};
 
 /// A link's sender when the ray escaped or its hit reconstructs to no value.
 pub const NO_SENDER: u32 = u32::MAX;

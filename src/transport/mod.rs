@@ -7,6 +7,7 @@
 
 pub mod coverage;
 pub mod cpu;
+pub mod estimator;
 pub mod links;
 pub mod readout;
 pub mod reconstruct;

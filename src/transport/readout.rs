@@ -15,7 +15,7 @@ use crate::geom::Ray;
 use crate::hierarchy::Hierarchy;
 use crate::params::SolverParams;
 use crate::scene::{Scene, Surface};
-use crate::transport::cpu::Estimator;
+use crate::transport::estimator::Estimator;
 use crate::transport::Solution;
 
 /// A value and its standard error (zero for the basis read directly).

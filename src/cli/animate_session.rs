@@ -1,5 +1,5 @@
 //! `meshrad animate` (frames from a file) and `meshrad session` (JSON lines on stdin):
-//! hierarchies built once, each frame or `solve` re-solves after its edits (`crate::edit`).
+//! hierarchies built once, each frame or `solve` re-solves after its edits (`crate::editor`).
 
 use std::io::{BufRead, Write};
 use std::path::{Path, PathBuf};
@@ -12,7 +12,7 @@ use serde::Serialize;
 use serde_json::{json, Value};
 
 use super::{load_scene, report_load, ImageSummary, PhaseSeconds, RunStats, SceneSummary, SolverArgs};
-use crate::edit::{self, Changed, Edit, Editor, Frame, FrameSeconds};
+use crate::editor::{self, Changed, Edit, Editor, Frame, FrameSeconds};
 use crate::output::{self, image, probe};
 use crate::progress::Progress;
 
@@ -137,14 +137,14 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
     let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, a.solver.quiet);
-    let params = edit::editing_params(&params, "animate")?;
+    let params = editor::editing_params(&params, "animate")?;
     let text = crate::limits::read_text(&a.frames, crate::limits::MAX_TEXT_BYTES)?;
-    let frames = edit::parse_frames(&text, &a.frames)?;
+    let frames = editor::parse_frames(&text, &a.frames)?;
     // Every frame applied in order to a copy first: a bad name or value fails here,
     // before any solving.
     let mut check = scene.clone();
     for (k, f) in frames.iter().enumerate() {
-        edit::apply(&mut check, f, &format!("{}: frame {k}", a.frames.display()))?;
+        editor::apply(&mut check, f, &format!("{}: frame {k}", a.frames.display()))?;
     }
     drop(check);
     let points = a.points.as_deref().map(probe::read).transpose()?;
@@ -366,7 +366,7 @@ pub fn session(a: SessionArgs) -> Result<()> {
     let progress = Progress::hidden();
     let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, true);
-    let params = edit::editing_params(&params, "session")?;
+    let params = editor::editing_params(&params, "session")?;
     let engine = super::engine(&a.solver, true)?;
     let inputs = scene.report.inputs.clone();
     let ed = Editor::new(scene, params, engine, &progress)?;

@@ -12,7 +12,7 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::edit::{self, Edit, Editor, ObjectEdit};
+use crate::editor::{self, Edit, Editor, ObjectEdit};
 use crate::engine::Engine;
 use crate::error::{Error, Result};
 use crate::geom::Transform;
@@ -151,7 +151,7 @@ pub fn load(s: &EditScene, dir: &Path, smoke: bool) -> Result<(Scene, SolverPara
         scene.camera.width = 32;
         scene.camera.height = 32;
     }
-    Ok((scene, edit::editing_params(&p, "bench edit")?))
+    Ok((scene, editor::editing_params(&p, "bench edit")?))
 }
 
 /// One frame, both ways.
@@ -220,7 +220,7 @@ pub fn run_scene(
         let (mut fresh, p) = load(s, dir, smoke)?;
         let fresh_load = t0.elapsed().as_secs_f64();
         for (j, ej) in edits[..=k].iter().enumerate() {
-            edit::apply(&mut fresh, ej, &format!("frame {j}"))?;
+            editor::apply(&mut fresh, ej, &format!("frame {j}"))?;
         }
         // As `meshrad solve` does it: on a device, the build ends with the upload and the
         // arrangement there (`Engine::build`); the rest is the transport.
