@@ -228,7 +228,14 @@ impl Changed {
 /// scene file holding the new values would be), and an error changes nothing. Setting a
 /// spot light's `target` drops its `direction` and the other way round.
 pub fn apply(scene: &mut Scene, e: &Edit, at: &str) -> Result<Changed> {
-    let mut changed = Changed::default();
+    let transforms = checked_transforms(scene, e, at)?;
+    let tables = checked_light_tables(scene, e, at)?;
+    set_all(scene, transforms, tables, at)
+}
+
+/// The new transform of every object `e` names, checked, in the order given (an object
+/// named twice: the later values over the earlier).
+fn checked_transforms(scene: &Scene, e: &Edit, at: &str) -> Result<Vec<(usize, crate::geom::Transform)>> {
     let mut transforms: Vec<(usize, crate::geom::Transform)> = Vec::new();
     for (name, oe) in &e.objects {
         let i = scene.object_index(name).ok_or_else(|| {
@@ -257,6 +264,11 @@ pub fn apply(scene: &mut Scene, e: &Edit, at: &str) -> Result<Changed> {
         crate::scene::check_transform(&t).map_err(|(f, m)| edit_err(at, format!("objects.{name}.{f}"), m))?;
         transforms.push((i, t));
     }
+    Ok(transforms)
+}
+
+/// The new `[[light]]` table of every light `e` names, checked as a scene file's.
+fn checked_light_tables(scene: &Scene, e: &Edit, at: &str) -> Result<Vec<(usize, toml::Table)>> {
     let mut tables: Vec<(usize, toml::Table)> = Vec::new();
     for (name, keys) in &e.lights {
         let i = scene.light_index(name).ok_or_else(|| {
@@ -291,6 +303,17 @@ pub fn apply(scene: &mut Scene, e: &Edit, at: &str) -> Result<Changed> {
         })?;
         tables.push((i, t));
     }
+    Ok(tables)
+}
+
+/// Sets the checked transforms and light tables, all or nothing.
+fn set_all(
+    scene: &mut Scene,
+    transforms: Vec<(usize, crate::geom::Transform)>,
+    tables: Vec<(usize, toml::Table)>,
+    at: &str,
+) -> Result<Changed> {
+    let mut changed = Changed::default();
     // Checked; now applied (the bounds and the lights' power are checked as they go in,
     // and undone on failure).
     let before = (

@@ -324,34 +324,10 @@ fn meshrad_rows(
     let both: Vec<Probe> = area.probes.iter().chain(&camera.probes).copied().collect();
     let mut rows = Vec::new();
     let mut hierarchies: Vec<(String, Hierarchy, f64)> = Vec::new();
-    let mut configs = if opts.decompose {
-        decomposition(base)
-    } else {
-        configurations(base, opts.quick)
-    };
-    if opts.defaults_only {
-        configs.truncate(1);
-    }
-    if !opts.only.is_empty() {
-        configs.retain(|(label, _)| opts.only.iter().any(|o| o == label));
-    }
+    let configs = sweep_configurations(base, opts);
     // The last solve on each backend, by its transport parameters: a configuration that
     // only changes how outputs read the solution (final_gather) reuses it.
     let mut last: Vec<Option<(String, Measured, Solution)>> = vec![None; backends.len()];
-    // In the decomposition, every solve that reads its outputs by a final gather is also
-    // read from the basis directly (the same solve): both columns of each term.
-    let configs: Vec<(String, SolverParams)> = configs
-        .into_iter()
-        .flat_map(|(label, params)| {
-            let mut out = vec![(label.clone(), params.clone())];
-            if opts.decompose && params.final_gather > 0 {
-                let mut q = params;
-                q.final_gather = 0;
-                out.push((format!("{label}, basis read"), q));
-            }
-            out
-        })
-        .collect();
     for (label, params) in configs {
         let key = format!("{}|{}|{}", params.levels, params.coarsest, params.reach_paths);
         let key = format!("{key}|{}|{}", params.crevice_distance.to_bits(), params.support_clip);
@@ -430,6 +406,35 @@ fn meshrad_rows(
         }
     }
     Ok(rows)
+}
+
+/// The sweep's configurations, labelled, as `opts` selects them; in the decomposition,
+/// every solve that reads its outputs by a final gather is also read from the basis
+/// directly (the same solve): both columns of each term.
+fn sweep_configurations(base: &SolverParams, opts: &AccuracyOptions) -> Vec<(String, SolverParams)> {
+    let mut configs = if opts.decompose {
+        decomposition(base)
+    } else {
+        configurations(base, opts.quick)
+    };
+    if opts.defaults_only {
+        configs.truncate(1);
+    }
+    if !opts.only.is_empty() {
+        configs.retain(|(label, _)| opts.only.iter().any(|o| o == label));
+    }
+    configs
+        .into_iter()
+        .flat_map(|(label, params)| {
+            let mut out = vec![(label.clone(), params.clone())];
+            if opts.decompose && params.final_gather > 0 {
+                let mut q = params;
+                q.final_gather = 0;
+                out.push((format!("{label}, basis read"), q));
+            }
+            out
+        })
+        .collect()
 }
 
 /// The per-point error map: an ASCII PLY of the area-uniform points with their reference,

@@ -222,6 +222,36 @@ fn to_toml(v: &Value) -> std::result::Result<toml::Value, String> {
     })
 }
 
+/// A `probe` command's points: `[[px, py, pz, nx, ny, nz], …]`, finite, with non-zero
+/// normals (normalised).
+fn probe_points(arg: &Value, at: &str) -> Result<Vec<probe::Probe>> {
+    let list = arg
+        .as_array()
+        .ok_or_else(|| anyhow::anyhow!("{at}: probe: expected [[px, py, pz, nx, ny, nz], …]"))?;
+    let mut points = Vec::with_capacity(list.len());
+    for (i, p) in list.iter().enumerate() {
+        let a: Vec<f32> = p
+            .as_array()
+            .filter(|a| a.len() == 6)
+            .map(|a| a.iter().filter_map(|x| x.as_f64().map(|x| x as f32)).collect())
+            .unwrap_or_default();
+        let bad = || {
+            anyhow::anyhow!(
+                "{at}: probe point {i}: expected six finite numbers [px, py, pz, nx, ny, nz] with a non-zero normal"
+            )
+        };
+        if a.len() != 6 || a.iter().any(|x| !x.is_finite()) {
+            return Err(bad());
+        }
+        let n = Vec3::new(a[3], a[4], a[5]).try_normalize().ok_or_else(bad)?;
+        points.push(probe::Probe {
+            p: Vec3::new(a[0], a[1], a[2]),
+            n,
+        });
+    }
+    Ok(points)
+}
+
 /// The session's state: the editor and the last solve.
 struct Session {
     ed: Editor,
@@ -279,28 +309,7 @@ impl Session {
                 Ok(Self::solve_answer(f, self.ed.hierarchy.nodes.len()))
             }
             "probe" => {
-                let list = arg
-                    .as_array()
-                    .ok_or_else(|| anyhow::anyhow!("{at}: probe: expected [[px, py, pz, nx, ny, nz], …]"))?;
-                let mut points = Vec::with_capacity(list.len());
-                for (i, p) in list.iter().enumerate() {
-                    let a: Vec<f32> = p
-                        .as_array()
-                        .filter(|a| a.len() == 6)
-                        .map(|a| a.iter().filter_map(|x| x.as_f64().map(|x| x as f32)).collect())
-                        .unwrap_or_default();
-                    let bad = || {
-                        anyhow::anyhow!("{at}: probe point {i}: expected six finite numbers [px, py, pz, nx, ny, nz] with a non-zero normal")
-                    };
-                    if a.len() != 6 || a.iter().any(|x| !x.is_finite()) {
-                        return Err(bad());
-                    }
-                    let n = Vec3::new(a[3], a[4], a[5]).try_normalize().ok_or_else(bad)?;
-                    points.push(probe::Probe {
-                        p: Vec3::new(a[0], a[1], a[2]),
-                        n,
-                    });
-                }
+                let points = probe_points(arg, &at)?;
                 let solved = self.ensure_solved()?;
                 let f = self.last.as_ref().expect("solved");
                 let values = probe::evaluate(

@@ -54,6 +54,82 @@ pub fn fits(ctx: &Context, jobs: &[LevelJob]) -> bool {
     all <= ctx.info.device_local_bytes / 2 && (max == 0 || largest <= max)
 }
 
+/// The scene as the crevice rays read it (triangles, BVHs, transforms) and a `Globals`
+/// block naming only these; kept alive while the darts are thrown.
+struct SceneUp {
+    _buffers: [Buffer; 5],
+    globals: Buffer,
+}
+
+impl SceneUp {
+    fn new(ctx: &Arc<Context>, scene: &Scene, p: &SolverParams) -> Result<SceneUp> {
+        let (cw_nodes, cw_prims) = cwbvh_of(scene, p);
+        let objects: Vec<ObjectInfo> = scene
+            .objects
+            .iter()
+            .zip(&scene.cw.roots)
+            .map(|(o, &root)| o.info(root))
+            .collect();
+        let tris = Buffer::upload(ctx, "triangles", &scene.tris[..])?;
+        let bvh = Buffer::upload(ctx, "bvh", &scene.bvh[..])?;
+        let cw_nodes = Buffer::upload(ctx, "cwbvh nodes", cw_nodes)?;
+        let cw_prims = Buffer::upload(ctx, "cwbvh primitives", cw_prims)?;
+        let object_buf = Buffer::upload(ctx, "objects", &objects[..])?;
+        let g = Globals {
+            tris: tris.address,
+            bvh: bvh.address,
+            cw_nodes: cw_nodes.address,
+            cw_prims: cw_prims.address,
+            objects: object_buf.address,
+            num_objects: scene.objects.len() as u32,
+            scene_scale: scene.scale,
+            ..Default::default()
+        };
+        let globals = Buffer::upload(ctx, "globals (dart throwing)", bytemuck::bytes_of(&g))?;
+        Ok(SceneUp {
+            _buffers: [tris, bvh, cw_nodes, cw_prims, object_buf],
+            globals,
+        })
+    }
+}
+
+/// Scratch for the largest level, reused by every job.
+struct Scratch {
+    state: Buffer,
+    table: Buffer,
+    fill: Buffer,
+    sorted: Buffer,
+    counters: Buffer,
+    sums: Buffer,
+}
+
+impl Scratch {
+    fn new(ctx: &Arc<Context>, jobs: &[LevelJob]) -> Result<Scratch> {
+        let most = jobs.iter().map(|j| j.take).max().unwrap_or(0).max(1);
+        let buckets = most.next_power_of_two();
+        let words = |name: &str, n: usize| Buffer::zeroed(ctx, name, 4 * n.max(1) as u64);
+        Ok(Scratch {
+            state: words("dart states", most)?,
+            table: words("dart buckets", buckets + 1)?,
+            fill: words("dart bucket fill", buckets)?,
+            sorted: Buffer::new(ctx, "darts by bucket", 32 * most as u64, MemoryLocation::GpuOnly)?,
+            counters: words("dart counters", 1 + ROUNDS)?,
+            sums: words("dart scan sums", Scan::blocks(buckets as u64 + 1) as usize)?,
+        })
+    }
+}
+
+/// What throwing one object's levels needs: the pipelines, the profiler, the scene on
+/// the device and the scratch.
+struct Thrower<'a> {
+    ctx: &'a Arc<Context>,
+    kernel: Poisson,
+    scan: Scan,
+    prof: Profiler,
+    up: SceneUp,
+    x: Scratch,
+}
+
 /// Every job's accepted candidates, in pool order, the count of candidates found in a
 /// crevice and the rounds taken; see the module's documentation.
 pub fn levels_on_device(
@@ -66,46 +142,14 @@ pub fn levels_on_device(
     progress: &Progress,
 ) -> Result<Thrown> {
     let spec = super::backend::specialization(p, scene);
-    let kernel = Poisson::new(ctx, spec)?;
-    let scan = Scan::new(ctx, spec)?;
-    let mut prof = Profiler::new(ctx)?;
-
-    // What the crevice rays read: triangles, BVHs, transforms.
-    let (cw_nodes, cw_prims) = cwbvh_of(scene, p);
-    let objects: Vec<ObjectInfo> = scene
-        .objects
-        .iter()
-        .zip(&scene.cw.roots)
-        .map(|(o, &root)| o.info(root))
-        .collect();
-    let tris = Buffer::upload(ctx, "triangles", &scene.tris[..])?;
-    let bvh = Buffer::upload(ctx, "bvh", &scene.bvh[..])?;
-    let cw_nodes = Buffer::upload(ctx, "cwbvh nodes", cw_nodes)?;
-    let cw_prims = Buffer::upload(ctx, "cwbvh primitives", cw_prims)?;
-    let object_buf = Buffer::upload(ctx, "objects", &objects[..])?;
-    let g = Globals {
-        tris: tris.address,
-        bvh: bvh.address,
-        cw_nodes: cw_nodes.address,
-        cw_prims: cw_prims.address,
-        objects: object_buf.address,
-        num_objects: scene.objects.len() as u32,
-        scene_scale: scene.scale,
-        ..Default::default()
+    let mut t = Thrower {
+        ctx,
+        kernel: Poisson::new(ctx, spec)?,
+        scan: Scan::new(ctx, spec)?,
+        prof: Profiler::new(ctx)?,
+        up: SceneUp::new(ctx, scene, p)?,
+        x: Scratch::new(ctx, jobs)?,
     };
-    let globals = Buffer::upload(ctx, "globals (dart throwing)", bytemuck::bytes_of(&g))?;
-
-    // Scratch for the largest level, reused by every job.
-    let most = jobs.iter().map(|j| j.take).max().unwrap_or(0).max(1);
-    let buckets = most.next_power_of_two();
-    let words = |name: &str, n: usize| Buffer::zeroed(ctx, name, 4 * n.max(1) as u64);
-    let state = words("dart states", most)?;
-    let table = words("dart buckets", buckets + 1)?;
-    let fill = words("dart bucket fill", buckets)?;
-    let sorted = Buffer::new(ctx, "darts by bucket", 32 * most as u64, MemoryLocation::GpuOnly)?;
-    let counters = words("dart counters", 1 + ROUNDS)?;
-    let sums = words("dart scan sums", Scan::blocks(buckets as u64 + 1) as usize)?;
-
     let mut sets = vec![Vec::new(); jobs.len()];
     let mut rounds_taken = 0;
     let bar = progress.bar(
@@ -125,22 +169,20 @@ pub fn levels_on_device(
             .collect();
         let cands = Buffer::upload(ctx, "dart candidates", &flat[..])?;
         drop(flat);
-        let memo = words("crevice tests", largest)?;
+        let memo = Buffer::zeroed(ctx, "crevice tests", 4 * largest.max(1) as u64)?;
         for k in mine {
             let job = &jobs[k];
-            let n = job.take;
-            let bk = n.next_power_of_two();
             let r = job.radius;
             let push = PoissonPush {
                 cands: cands.address,
-                state: state.address,
+                state: t.x.state.address,
                 memo: memo.address,
-                table: table.address,
-                fill: fill.address,
-                sorted: sorted.address,
-                counters: counters.address,
-                count: n as u32,
-                mask: bk as u32 - 1,
+                table: t.x.table.address,
+                fill: t.x.fill.address,
+                sorted: t.x.sorted.address,
+                counters: t.x.counters.address,
+                count: job.take as u32,
+                mask: job.take.next_power_of_two() as u32 - 1,
                 r,
                 r2: r * r,
                 inv_cell: 0.5 / r,
@@ -150,48 +192,9 @@ pub fn levels_on_device(
                 within: crevice.within as u32,
                 ..Default::default()
             };
-            let rounds = |rec: &mut super::kernels::Recorder| {
-                rec.fill(&counters, 4, 4 * ROUNDS as u64, 0);
-                rec.barrier();
-                for round in 0..ROUNDS {
-                    kernel.record(
-                        rec,
-                        &PoissonPush {
-                            round: round as u32,
-                            ..push
-                        },
-                        RESOLVE,
-                    );
-                    rec.barrier();
-                }
-            };
-            submit(ctx, &mut prof, globals.address, |rec| {
-                rec.fill(&state, 0, 4 * n as u64, 0);
-                rec.fill(&table, 0, 4 * (bk as u64 + 1), 0);
-                rec.fill(&fill, 0, 4 * bk as u64, 0);
-                rec.barrier();
-                kernel.record(rec, &push, COUNT);
-                rec.barrier();
-                scan.record(rec, table.address, sums.address, bk as u32 + 1);
-                kernel.record(rec, &push, SCATTER);
-                rec.barrier();
-                rounds(rec);
-            })?;
-            // Each round decides at least the first undecided candidate.
-            let mut done = ROUNDS;
-            while counters.download::<u32>(ROUNDS, 1)?[0] > 0 {
-                if done > n + ROUNDS {
-                    return Err(Error::Gpu(format!(
-                        "dart throwing on the device: object {o} level {} still undecided after {done} rounds",
-                        job.level
-                    )));
-                }
-                submit(ctx, &mut prof, globals.address, rounds)?;
-                done += ROUNDS;
-            }
-            rounds_taken += done;
-            bar.inc(n as u64);
-            let states: Vec<u32> = state.download(0, n)?;
+            let (states, rounds) = t.throw(job, &push)?;
+            rounds_taken += rounds;
+            bar.inc(job.take as u64);
             sets[k] = states
                 .iter()
                 .zip(pool)
@@ -201,10 +204,62 @@ pub fn levels_on_device(
         }
     }
     bar.finish();
-    let crevices = counters.download::<u32>(0, 1)?[0] as usize;
+    let crevices = t.x.counters.download::<u32>(0, 1)?[0] as usize;
     Ok(Thrown {
         sets,
         crevices,
         rounds: rounds_taken,
     })
+}
+
+impl Thrower<'_> {
+    /// Throws one level's darts (`push` names its candidates): bucket them, then rounds
+    /// of decisions until none is undecided. Returns each candidate's state and the
+    /// rounds taken.
+    fn throw(&mut self, job: &LevelJob, push: &PoissonPush) -> Result<(Vec<u32>, usize)> {
+        let (ctx, kernel, x) = (self.ctx, &self.kernel, &self.x);
+        let n = job.take;
+        let bk = n.next_power_of_two();
+        let globals = self.up.globals.address;
+        let rounds = |rec: &mut super::kernels::Recorder| {
+            rec.fill(&x.counters, 4, 4 * ROUNDS as u64, 0);
+            rec.barrier();
+            for round in 0..ROUNDS {
+                kernel.record(
+                    rec,
+                    &PoissonPush {
+                        round: round as u32,
+                        ..*push
+                    },
+                    RESOLVE,
+                );
+                rec.barrier();
+            }
+        };
+        submit(ctx, &mut self.prof, globals, |rec| {
+            rec.fill(&x.state, 0, 4 * n as u64, 0);
+            rec.fill(&x.table, 0, 4 * (bk as u64 + 1), 0);
+            rec.fill(&x.fill, 0, 4 * bk as u64, 0);
+            rec.barrier();
+            kernel.record(rec, push, COUNT);
+            rec.barrier();
+            self.scan.record(rec, x.table.address, x.sums.address, bk as u32 + 1);
+            kernel.record(rec, push, SCATTER);
+            rec.barrier();
+            rounds(rec);
+        })?;
+        // Each round decides at least the first undecided candidate.
+        let mut done = ROUNDS;
+        while x.counters.download::<u32>(ROUNDS, 1)?[0] > 0 {
+            if done > n + ROUNDS {
+                return Err(Error::Gpu(format!(
+                    "dart throwing on the device: object {} level {} still undecided after {done} rounds",
+                    job.object, job.level
+                )));
+            }
+            submit(ctx, &mut self.prof, globals, rounds)?;
+            done += ROUNDS;
+        }
+        Ok((x.state.download(0, n)?, done))
+    }
 }
