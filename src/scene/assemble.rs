@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 use glam::Vec3;
 
 use super::builder::{world_bounds, Builder};
+use super::gltf_file::GltfLight;
 use super::memory::plan_memory;
 use super::{config, light, sky, source, Camera, Scene, Source};
 use crate::error::{Error, Result};
@@ -90,75 +91,9 @@ impl Scene {
         overrides: &[(String, toml::Value)],
         limits: &Limits,
     ) -> Result<(Scene, SolverParams)> {
-        let text = crate::limits::strip_bom(text);
-        let mut file: config::SceneFile = toml::from_str(text).map_err(|e| Error::SceneSyntax {
-            path: path.into(),
-            message: clip_lines(e.to_string().trim_end()),
-        })?;
-        // The file's [solver], then the overrides, validated once: a file whose values
-        // are only valid together with an override (`levels = 3` and `--set
-        // sender_level=2`) is fine.
-        if overrides.is_empty() {
-            file.solver.validate().map_err(|e| Error::SceneValue {
-                path: path.into(),
-                key: "solver".into(),
-                message: e.to_string(),
-            })?;
-        } else {
-            file.solver = apply_overrides(&file.solver, overrides)?;
-        }
-        if file.object.is_empty() {
-            return Err(Error::SceneValue {
-                path: path.into(),
-                key: "object".into(),
-                message: "the scene has no [[object]]: nothing to light".into(),
-            });
-        }
-        let mut light_names = Vec::new();
-        let mut light_tables = Vec::new();
-        for (i, l) in file.light.iter().enumerate() {
-            let mut t = l.clone();
-            let named = t.contains_key("name");
-            let name = match t.remove("name") {
-                None => format!("light{i}"),
-                Some(toml::Value::String(s)) if !s.trim().is_empty() => s,
-                Some(v) => {
-                    return Err(Error::SceneValue {
-                        path: path.into(),
-                        key: format!("light[{i}].name"),
-                        message: format!("expected a non-empty string, found {v}"),
-                    })
-                }
-            };
-            if light_names.contains(&name) {
-                return Err(Error::SceneValue {
-                    path: path.into(),
-                    key: format!("light[{i}].name"),
-                    message: if named {
-                        format!("`{name}` names an earlier light too: names must be unique")
-                    } else {
-                        format!(
-                            "this light has no `name`, and its default `{name}` names an earlier light: \
-                             names must be unique, so give it one"
-                        )
-                    },
-                });
-            }
-            light_names.push(name);
-            light_tables.push(t);
-        }
-        let lights = light_tables
-            .iter()
-            .enumerate()
-            .map(|(i, l)| light::from_table(l, i, path))
-            .collect::<Result<Vec<_>>>()?;
-        if !lights.is_empty() {
-            check_light_power(&lights).map_err(|message| Error::SceneValue {
-                path: path.into(),
-                key: "light".into(),
-                message,
-            })?;
-        }
+        let file = parse_scene_file(text, path, overrides)?;
+        let (mut light_names, mut light_tables) = name_lights(&file.light, path)?;
+        let mut lights = read_lights(&light_tables, path)?;
         // What the parameters alone ask for, before any mesh is read; checked again with
         // the triangles in `finish`.
         let camera = file.camera.as_ref().map(|c| Camera::from_entry(c, path)).transpose()?;
@@ -188,29 +123,9 @@ impl Scene {
         if let Some(f) = sky.as_ref().and_then(sky::Sky::file) {
             b.report.inputs.push(f.to_path_buf());
         }
-        let mut lights = lights;
         if !b.gltf_lights.is_empty() {
-            for (object, l) in std::mem::take(&mut b.gltf_lights) {
-                // The light's own name; its object's name before it where that is taken.
-                let mut name = l.name.clone();
-                if light_names.contains(&name) {
-                    name = format!("{object}/{}", l.name);
-                }
-                let base = name.clone();
-                let mut k = 1;
-                while light_names.contains(&name) {
-                    k += 1;
-                    name = format!("{base}#{k}");
-                }
-                lights.push(light::from_table(&l.table, lights.len(), path)?);
-                light_names.push(name);
-                light_tables.push(l.table);
-            }
-            check_light_power(&lights).map_err(|message| Error::SceneValue {
-                path: path.into(),
-                key: "light".into(),
-                message,
-            })?;
+            let gltf_lights = std::mem::take(&mut b.gltf_lights);
+            add_gltf_lights(gltf_lights, path, &mut lights, &mut light_names, &mut light_tables)?;
         }
         let camera_entry = file.camera.clone().or(b.gltf_camera.take());
         let mut scene = b.finish(path, &source, lights, camera_entry.as_ref(), &file.solver)?;
@@ -271,6 +186,126 @@ impl Scene {
         self.light_tables[i] = table;
         Ok(())
     }
+}
+
+/// The scene file parsed, its `[solver]` with the overrides applied and validated, and
+/// checked to hold an object.
+fn parse_scene_file(text: &str, path: &Path, overrides: &[(String, toml::Value)]) -> Result<config::SceneFile> {
+    let text = crate::limits::strip_bom(text);
+    let mut file: config::SceneFile = toml::from_str(text).map_err(|e| Error::SceneSyntax {
+        path: path.into(),
+        message: clip_lines(e.to_string().trim_end()),
+    })?;
+    // The file's [solver], then the overrides, validated once: a file whose values
+    // are only valid together with an override (`levels = 3` and `--set
+    // sender_level=2`) is fine.
+    if overrides.is_empty() {
+        file.solver.validate().map_err(|e| Error::SceneValue {
+            path: path.into(),
+            key: "solver".into(),
+            message: e.to_string(),
+        })?;
+    } else {
+        file.solver = apply_overrides(&file.solver, overrides)?;
+    }
+    if file.object.is_empty() {
+        return Err(Error::SceneValue {
+            path: path.into(),
+            key: "object".into(),
+            message: "the scene has no [[object]]: nothing to light".into(),
+        });
+    }
+    Ok(file)
+}
+
+/// Each `[[light]]`'s name (its `name`, default `light<i>`; unique) and its table less
+/// `name`.
+fn name_lights(entries: &[toml::Table], path: &Path) -> Result<(Vec<String>, Vec<toml::Table>)> {
+    let mut light_names = Vec::new();
+    let mut light_tables = Vec::new();
+    for (i, l) in entries.iter().enumerate() {
+        let mut t = l.clone();
+        let named = t.contains_key("name");
+        let name = match t.remove("name") {
+            None => format!("light{i}"),
+            Some(toml::Value::String(s)) if !s.trim().is_empty() => s,
+            Some(v) => {
+                return Err(Error::SceneValue {
+                    path: path.into(),
+                    key: format!("light[{i}].name"),
+                    message: format!("expected a non-empty string, found {v}"),
+                })
+            }
+        };
+        if light_names.contains(&name) {
+            return Err(Error::SceneValue {
+                path: path.into(),
+                key: format!("light[{i}].name"),
+                message: if named {
+                    format!("`{name}` names an earlier light too: names must be unique")
+                } else {
+                    format!(
+                        "this light has no `name`, and its default `{name}` names an earlier light: \
+                         names must be unique, so give it one"
+                    )
+                },
+            });
+        }
+        light_names.push(name);
+        light_tables.push(t);
+    }
+    Ok((light_names, light_tables))
+}
+
+/// The lights the `[[light]]` tables describe; where there are any, some must give light.
+fn read_lights(light_tables: &[toml::Table], path: &Path) -> Result<Vec<GpuLight>> {
+    let lights = light_tables
+        .iter()
+        .enumerate()
+        .map(|(i, l)| light::from_table(l, i, path))
+        .collect::<Result<Vec<_>>>()?;
+    if !lights.is_empty() {
+        check_light_power(&lights).map_err(|message| Error::SceneValue {
+            path: path.into(),
+            key: "light".into(),
+            message,
+        })?;
+    }
+    Ok(lights)
+}
+
+/// Adds the glTF objects' lights after the file's, each under its own name (its object's
+/// name before it where that is taken, then `#2`, `#3`… until unique), and checks again
+/// that some light gives light.
+fn add_gltf_lights(
+    gltf_lights: Vec<(String, GltfLight)>,
+    path: &Path,
+    lights: &mut Vec<GpuLight>,
+    light_names: &mut Vec<String>,
+    light_tables: &mut Vec<toml::Table>,
+) -> Result<()> {
+    for (object, l) in gltf_lights {
+        // The light's own name; its object's name before it where that is taken.
+        let mut name = l.name.clone();
+        if light_names.contains(&name) {
+            name = format!("{object}/{}", l.name);
+        }
+        let base = name.clone();
+        let mut k = 1;
+        while light_names.contains(&name) {
+            k += 1;
+            name = format!("{base}#{k}");
+        }
+        lights.push(light::from_table(&l.table, lights.len(), path)?);
+        light_names.push(name);
+        light_tables.push(l.table);
+    }
+    check_light_power(lights).map_err(|message| Error::SceneValue {
+        path: path.into(),
+        key: "light".into(),
+        message,
+    })?;
+    Ok(())
 }
 
 /// `message` with every line cut to 160 characters (a TOML error quotes the offending

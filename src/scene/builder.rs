@@ -11,6 +11,7 @@ use super::{config, emitter, gltf_file, obj, source, texture, Camera, LoadReport
 use crate::error::{Error, Result};
 use crate::geom::bvh;
 use crate::geom::transform::{xform_point, xform_vector, Affine};
+use crate::geom::Transform;
 use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
 use crate::limits::{Limits, Part};
 use crate::params::SolverParams;
@@ -63,55 +64,10 @@ impl Builder {
         let tri_offset = self.tris.len() as u32;
         let node_offset = self.bvh.len() as u32;
         bvh::rebase(&mut nodes, node_offset, tri_offset);
-        let area = mesh
-            .tris
-            .iter()
-            .map(|t| {
-                let v0 = Vec3::from(t.v0).as_dvec3();
-                (Vec3::from(t.v1).as_dvec3() - v0)
-                    .cross(Vec3::from(t.v2).as_dvec3() - v0)
-                    .length()
-                    * 0.5
-            })
-            .sum();
-        let name = e.name.clone().unwrap_or_else(|| format!("object{i}"));
-        if name.trim().is_empty() || self.objects.iter().any(|o| o.name == name) {
-            return Err(Error::SceneValue {
-                path: scene_path.into(),
-                key: format!("object[{i}].name"),
-                message: if name.trim().is_empty() {
-                    "is empty".into()
-                } else if e.name.is_none() {
-                    format!(
-                        "this object has no `name`, and its default `{name}` names an earlier object: \
-                         names must be unique, so give it one"
-                    )
-                } else {
-                    format!("`{name}` names an earlier object too: names must be unique")
-                },
-            });
-        }
+        let area = object_area(&mesh.tris);
+        let name = self.object_name(scene_path, i, e)?;
         if let Some(g) = gltf {
-            let to_world = transform.to_world();
-            for mut l in g.lights {
-                place_light_table(&mut l.table, &to_world);
-                self.gltf_lights.push((name.clone(), l));
-            }
-            if let (None, Some(c)) = (&self.gltf_camera, g.camera) {
-                let p = xform_point(&to_world, c.position);
-                let (w, h) = match c.aspect {
-                    Some(a) => (((256.0 * a).round() as u32).clamp(1, 16384), 256),
-                    None => (256, 256),
-                };
-                self.gltf_camera = Some(config::CameraEntry {
-                    position: p.to_array(),
-                    target: (p + xform_vector(&to_world, c.forward)).to_array(),
-                    up: xform_vector(&to_world, c.up).to_array(),
-                    fov: c.fov,
-                    width: w,
-                    height: h,
-                });
-            }
+            self.place_gltf(g, &transform, &name);
         }
         let emits = e.emission.unwrap_or(true);
         if !emits {
@@ -143,6 +99,54 @@ impl Builder {
         self.material_emits.extend(mesh.materials.iter().map(|_| emits));
         self.materials.extend(mesh.materials);
         Ok(())
+    }
+
+    /// Object `i`'s name (`name`, default `object<i>`): not empty, and not an earlier
+    /// object's.
+    fn object_name(&self, scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Result<String> {
+        let name = e.name.clone().unwrap_or_else(|| format!("object{i}"));
+        if name.trim().is_empty() || self.objects.iter().any(|o| o.name == name) {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: format!("object[{i}].name"),
+                message: if name.trim().is_empty() {
+                    "is empty".into()
+                } else if e.name.is_none() {
+                    format!(
+                        "this object has no `name`, and its default `{name}` names an earlier object: \
+                         names must be unique, so give it one"
+                    )
+                } else {
+                    format!("`{name}` names an earlier object too: names must be unique")
+                },
+            });
+        }
+        Ok(name)
+    }
+
+    /// Records a glTF object's lights and, if none was met before, its camera, placed in
+    /// the world by the object's transform.
+    fn place_gltf(&mut self, g: gltf_file::LoadedGltf, transform: &Transform, name: &str) {
+        let to_world = transform.to_world();
+        for mut l in g.lights {
+            place_light_table(&mut l.table, &to_world);
+            self.gltf_lights.push((name.to_string(), l));
+        }
+        if let (None, Some(c)) = (&self.gltf_camera, g.camera) {
+            let p = xform_point(&to_world, c.position);
+            let (w, h) = match c.aspect {
+                Some(a) => (((256.0 * a).round() as u32).clamp(1, 16384), 256),
+                None => (256, 256),
+            };
+            self.gltf_camera = Some(config::CameraEntry {
+                position: p.to_array(),
+                target: (p + xform_vector(&to_world, c.forward)).to_array(),
+                up: xform_vector(&to_world, c.up).to_array(),
+                fov: c.fov,
+                width: w,
+                height: h,
+            });
+        }
     }
 
     /// Object `i`'s mesh `rel` (`expanded` from `$MESHRAD_SCENES` if it named it), within
@@ -438,4 +442,17 @@ pub(super) fn world_bounds(objects: &[SceneObject], tris: &[Tri]) -> std::result
         return Err("the geometry's bounds are empty or not finite".into());
     }
     Ok((lo, hi, scale))
+}
+
+/// The surface area (one side) of an object's triangles, in its own space.
+fn object_area(tris: &[Tri]) -> f64 {
+    tris.iter()
+        .map(|t| {
+            let v0 = Vec3::from(t.v0).as_dvec3();
+            (Vec3::from(t.v1).as_dvec3() - v0)
+                .cross(Vec3::from(t.v2).as_dvec3() - v0)
+                .length()
+                * 0.5
+        })
+        .sum()
 }
