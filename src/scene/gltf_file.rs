@@ -72,56 +72,158 @@ pub fn is_gltf(rel: &Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("gltf") || e.eq_ignore_ascii_case("glb"))
 }
 
+/// The glTF file being read: where its buffers and images come from, and how messages
+/// name it.
+struct Input<'a> {
+    source: &'a Source,
+    rel: &'a Path,
+    /// The file's folder, against which buffer and image URIs are read.
+    dir: PathBuf,
+    /// The most bytes the file and each buffer and image may have.
+    limit: u64,
+    /// The file as messages name it.
+    shown: PathBuf,
+}
+
 /// Loads `rel` from `source`; it and each buffer and image may have at most `limit` bytes.
 /// With `groups`, only the subtrees of the nodes of those names are kept (each must exist).
 pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) -> Result<LoadedGltf> {
-    let shown = source.display(rel);
-    let err = |message: String| Error::Mesh {
-        path: shown.clone(),
-        line: None,
-        message,
+    let input = Input {
+        source,
+        rel,
+        dir: rel.parent().map(Path::to_path_buf).unwrap_or_default(),
+        limit,
+        shown: source.display(rel),
     };
+    let err = |message: String| input.err(message);
     let bytes = source.read_limited(rel, limit)?;
     let file = ::gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| err(format!("not a valid glTF 2.0 file: {e}")))?;
     validate(file.document.as_json()).map_err(|m| err(format!("not a valid glTF 2.0 file: {m}")))?;
     let doc = &file.document;
-    let dir = rel.parent().map(Path::to_path_buf).unwrap_or_default();
     let mut out = LoadedGltf::default();
-    out.mesh.inputs.push(shown.clone());
-
-    // Buffers, each checked against its declared length.
-    let mut buffers: Vec<Arc<[u8]>> = Vec::new();
-    for b in doc.buffers() {
-        let at = format!("buffers[{}]", b.index());
-        let data: Arc<[u8]> = match b.source() {
-            ::gltf::buffer::Source::Bin => match &file.blob {
-                Some(blob) => Arc::from(blob.as_slice()),
-                None => {
-                    return Err(err(format!(
-                        "{at}: refers to the GLB binary chunk, which the file lacks"
-                    )))
-                }
-            },
-            ::gltf::buffer::Source::Uri(uri) => {
-                read_uri(source, &dir, uri, limit, &mut out.mesh.inputs).map_err(|m| err(format!("{at}: {m}")))?
-            }
-        };
-        if data.len() < b.length() {
-            return Err(err(format!(
-                "{at}: has {} bytes, the file declares byteLength {}",
-                data.len(),
-                b.length()
-            )));
-        }
-        buffers.push(data);
-    }
+    out.mesh.inputs.push(input.shown.clone());
+    let buffers = input.buffers(&file, &mut out.mesh.inputs)?;
 
     // Materials (ours: the file's, then a default grey for primitives without one).
     let mut unsupported: BTreeMap<&'static str, usize> = BTreeMap::new();
     // The TEXCOORD set each material's base colour texture reads.
-    let mut tex_sets: Vec<Option<u32>> = Vec::new();
-    for m in doc.materials() {
+    let tex_sets = input.materials(doc, &buffers, &mut out.mesh, &mut unsupported)?;
+    let default_material = out.mesh.materials.len() as u32;
+
+    let roots = scene_roots(doc);
+    let mut walk = Walk {
+        buffers: &buffers,
+        cameras: &doc.as_json().cameras,
+        out: &mut out,
+        seen: HashSet::new(),
+        tex_sets: &tex_sets,
+        default_material,
+        unsupported: &mut unsupported,
+        any_uv: false,
+        selected: groups.map(|g| g.to_vec()),
+        found: HashSet::new(),
+    };
+    for n in &roots {
+        walk.node(n, Mat4::IDENTITY, 0, groups.is_none()).map_err(err)?;
+    }
+    let any_uv = walk.any_uv;
+    input.check_groups(doc, groups, &walk.found)?;
+    if !any_uv {
+        out.mesh.uvs.clear();
+    }
+    if out.mesh.unassigned > 0 {
+        out.mesh.materials.push(MtlData {
+            used_by: input.shown.clone(),
+            ..MtlData::grey("(default)".into(), input.shown.clone())
+        });
+    }
+    input.note_unsupported(doc, &mut unsupported, &mut out.mesh);
+    Ok(out)
+}
+
+/// The nodes at the top of the default scene's tree (or the first scene's; or every root
+/// node if there is no scene).
+fn scene_roots(doc: &::gltf::Document) -> Vec<::gltf::Node<'_>> {
+    match doc.default_scene().or_else(|| doc.scenes().next()) {
+        Some(s) => s.nodes().collect(),
+        None => {
+            let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
+            doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+        }
+    }
+}
+
+impl Input<'_> {
+    /// An error in the file, `message` saying where and why.
+    fn err(&self, message: String) -> Error {
+        Error::Mesh {
+            path: self.shown.clone(),
+            line: None,
+            message,
+        }
+    }
+
+    /// The file's buffers, each checked against its declared length; the files read are
+    /// added to `inputs`.
+    fn buffers(&self, file: &::gltf::Gltf, inputs: &mut Vec<PathBuf>) -> Result<Vec<Arc<[u8]>>> {
+        let err = |message: String| self.err(message);
+        let mut buffers: Vec<Arc<[u8]>> = Vec::new();
+        for b in file.document.buffers() {
+            let at = format!("buffers[{}]", b.index());
+            let data: Arc<[u8]> = match b.source() {
+                ::gltf::buffer::Source::Bin => match &file.blob {
+                    Some(blob) => Arc::from(blob.as_slice()),
+                    None => {
+                        return Err(err(format!(
+                            "{at}: refers to the GLB binary chunk, which the file lacks"
+                        )))
+                    }
+                },
+                ::gltf::buffer::Source::Uri(uri) => {
+                    read_uri(self.source, &self.dir, uri, self.limit, inputs).map_err(|m| err(format!("{at}: {m}")))?
+                }
+            };
+            if data.len() < b.length() {
+                return Err(err(format!(
+                    "{at}: has {} bytes, the file declares byteLength {}",
+                    data.len(),
+                    b.length()
+                )));
+            }
+            buffers.push(data);
+        }
+        Ok(buffers)
+    }
+
+    /// The file's materials, appended to `mesh.materials`, and the TEXCOORD set each one's
+    /// base colour texture reads.
+    fn materials(
+        &self,
+        doc: &::gltf::Document,
+        buffers: &[Arc<[u8]>],
+        mesh: &mut LoadedMesh,
+        unsupported: &mut BTreeMap<&'static str, usize>,
+    ) -> Result<Vec<Option<u32>>> {
+        let mut tex_sets: Vec<Option<u32>> = Vec::new();
+        for m in doc.materials() {
+            let md = self.material(doc, &m, buffers, &mut mesh.inputs, unsupported)?;
+            tex_sets.push(m.pbr_metallic_roughness().base_color_texture().map(|t| t.tex_coord()));
+            mesh.materials.push(md);
+        }
+        Ok(tex_sets)
+    }
+
+    /// Material `m`: its albedo and emission checked, its base colour texture found.
+    fn material(
+        &self,
+        doc: &::gltf::Document,
+        m: &::gltf::Material,
+        buffers: &[Arc<[u8]>],
+        inputs: &mut Vec<PathBuf>,
+        unsupported: &mut BTreeMap<&'static str, usize>,
+    ) -> Result<MtlData> {
+        let err = |message: String| self.err(message);
         let i = m.index().unwrap_or(0);
         let at = format!("materials[{i}]");
         let name = match m.name() {
@@ -130,8 +232,8 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
         };
         let pbr = m.pbr_metallic_roughness();
         let f = pbr.base_color_factor();
-        let mut md = MtlData::grey(name, shown.clone());
-        md.used_by = shown.clone();
+        let mut md = MtlData::grey(name, self.shown.clone());
+        md.used_by = self.shown.clone();
         md.kd = [f[0], f[1], f[2]];
         let textured = pbr.base_color_texture().is_some();
         if md
@@ -160,32 +262,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
         }
         if let Some(info) = pbr.base_color_texture() {
             let tex = info.texture();
-            let img = tex.source();
-            let key = format!("{}#images[{}]", rel.display(), img.index());
-            // From the JSON: the crate's `Image::source` unwraps a missing `mimeType`.
-            let ij = &doc.as_json().images[img.index()];
-            let (path, data) = match (&ij.buffer_view, &ij.uri) {
-                (Some(v), _) => {
-                    let view = doc
-                        .views()
-                        .nth(v.value())
-                        .ok_or_else(|| err(format!("images[{}]: no bufferView {}", img.index(), v.value())))?;
-                    let bytes = view_slice(&buffers, &view).map_err(|m| err(format!("{at}: its image: {m}")))?;
-                    (PathBuf::from(key), Some(Arc::from(bytes)))
-                }
-                (None, Some(uri)) if uri.starts_with("data:") => {
-                    let bytes = read_uri(source, &dir, uri, limit, &mut out.mesh.inputs)
-                        .map_err(|m| err(format!("images[{}]: {m}", img.index())))?;
-                    (PathBuf::from(key), Some(bytes))
-                }
-                (None, Some(uri)) => (dir.join(percent_decode(uri)), None),
-                (None, None) => {
-                    return Err(err(format!(
-                        "images[{}]: has neither a bufferView nor a uri",
-                        img.index()
-                    )))
-                }
-            };
+            let (path, data) = self.image(doc, &tex.source(), buffers, inputs, &at)?;
             md.texture = Some(path);
             md.texture_data = data;
             let mode = |w: WrappingMode| match w {
@@ -195,75 +272,91 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
             };
             md.wrap = mode(tex.sampler().wrap_s()) | mode(tex.sampler().wrap_t()) << 2;
         }
-        tex_sets.push(pbr.base_color_texture().map(|t| t.tex_coord()));
-        out.mesh.materials.push(md);
+        Ok(md)
     }
-    let default_material = out.mesh.materials.len() as u32;
 
-    // The node tree of the default scene (or the first; or every root node if none).
-    let roots: Vec<::gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
-        Some(s) => s.nodes().collect(),
-        None => {
-            let children: HashSet<usize> = doc.nodes().flat_map(|n| n.children().map(|c| c.index())).collect();
-            doc.nodes().filter(|n| !children.contains(&n.index())).collect()
+    /// Image `img` of material `at`'s base colour texture: the path that names it, and its
+    /// bytes where they are not a file of their own (a bufferView or a `data:` URI).
+    fn image(
+        &self,
+        doc: &::gltf::Document,
+        img: &::gltf::Image,
+        buffers: &[Arc<[u8]>],
+        inputs: &mut Vec<PathBuf>,
+        at: &str,
+    ) -> Result<(PathBuf, Option<Arc<[u8]>>)> {
+        let err = |message: String| self.err(message);
+        let key = format!("{}#images[{}]", self.rel.display(), img.index());
+        // From the JSON: the crate's `Image::source` unwraps a missing `mimeType`.
+        let ij = &doc.as_json().images[img.index()];
+        Ok(match (&ij.buffer_view, &ij.uri) {
+            (Some(v), _) => {
+                let view = doc
+                    .views()
+                    .nth(v.value())
+                    .ok_or_else(|| err(format!("images[{}]: no bufferView {}", img.index(), v.value())))?;
+                let bytes = view_slice(buffers, &view).map_err(|m| err(format!("{at}: its image: {m}")))?;
+                (PathBuf::from(key), Some(Arc::from(bytes)))
+            }
+            (None, Some(uri)) if uri.starts_with("data:") => {
+                let bytes = read_uri(self.source, &self.dir, uri, self.limit, inputs)
+                    .map_err(|m| err(format!("images[{}]: {m}", img.index())))?;
+                (PathBuf::from(key), Some(bytes))
+            }
+            (None, Some(uri)) => (self.dir.join(percent_decode(uri)), None),
+            (None, None) => {
+                return Err(err(format!(
+                    "images[{}]: has neither a bufferView nor a uri",
+                    img.index()
+                )))
+            }
+        })
+    }
+
+    /// With `groups`, that the walk `found` a node of each name.
+    fn check_groups(&self, doc: &::gltf::Document, groups: Option<&[String]>, found: &HashSet<String>) -> Result<()> {
+        if let Some(names) = groups {
+            if let Some(missing) = names.iter().find(|g| !found.contains(*g)) {
+                let have: Vec<&str> = doc.nodes().filter_map(|n| n.name()).take(40).collect();
+                return Err(self.err(format!(
+                    "has no node `{missing}` in its scene (its named nodes: {})",
+                    if have.is_empty() {
+                        "none".to_string()
+                    } else {
+                        have.join(", ")
+                    }
+                )));
+            }
         }
-    };
-    let mut walk = Walk {
-        buffers: &buffers,
-        cameras: &doc.as_json().cameras,
-        out: &mut out,
-        seen: HashSet::new(),
-        tex_sets: &tex_sets,
-        default_material,
-        unsupported: &mut unsupported,
-        any_uv: false,
-        selected: groups.map(|g| g.to_vec()),
-        found: HashSet::new(),
-    };
-    for n in &roots {
-        walk.node(n, Mat4::IDENTITY, 0, groups.is_none()).map_err(err)?;
+        Ok(())
     }
-    let any_uv = walk.any_uv;
-    if let Some(names) = groups {
-        if let Some(missing) = names.iter().find(|g| !walk.found.contains(*g)) {
-            let have: Vec<&str> = doc.nodes().filter_map(|n| n.name()).take(40).collect();
-            return Err(err(format!(
-                "has no node `{missing}` in its scene (its named nodes: {})",
-                if have.is_empty() {
-                    "none".to_string()
-                } else {
-                    have.join(", ")
-                }
-            )));
+
+    /// The one note that names what the file holds and loading does not use (unknown
+    /// extensions counted in `unsupported` here), if anything.
+    fn note_unsupported(
+        &self,
+        doc: &::gltf::Document,
+        unsupported: &mut BTreeMap<&'static str, usize>,
+        mesh: &mut LoadedMesh,
+    ) {
+        for e in doc.extensions_used() {
+            if !matches!(e, "KHR_lights_punctual" | "KHR_materials_emissive_strength") {
+                *unsupported.entry("extensions").or_default() += 1;
+            }
+        }
+        if !unsupported.is_empty() {
+            let parts: Vec<String> = unsupported.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
+            let mut note = format!("{}: glTF parts not used: {}", self.shown.display(), parts.join("; "));
+            let unknown: Vec<&str> = doc
+                .extensions_used()
+                .filter(|e| !matches!(*e, "KHR_lights_punctual" | "KHR_materials_emissive_strength"))
+                .collect();
+            if !unknown.is_empty() {
+                note.push_str(&format!(" (extensions: {})", unknown.join(", ")));
+            }
+            mesh.notes.push(note);
         }
     }
-    if !any_uv {
-        out.mesh.uvs.clear();
-    }
-    if out.mesh.unassigned > 0 {
-        out.mesh.materials.push(MtlData {
-            used_by: shown.clone(),
-            ..MtlData::grey("(default)".into(), shown.clone())
-        });
-    }
-    for e in doc.extensions_used() {
-        if !matches!(e, "KHR_lights_punctual" | "KHR_materials_emissive_strength") {
-            *unsupported.entry("extensions").or_default() += 1;
-        }
-    }
-    if !unsupported.is_empty() {
-        let parts: Vec<String> = unsupported.iter().map(|(k, n)| format!("{k} ×{n}")).collect();
-        let mut note = format!("{}: glTF parts not used: {}", shown.display(), parts.join("; "));
-        let unknown: Vec<&str> = doc
-            .extensions_used()
-            .filter(|e| !matches!(*e, "KHR_lights_punctual" | "KHR_materials_emissive_strength"))
-            .collect();
-        if !unknown.is_empty() {
-            note.push_str(&format!(" (extensions: {})", unknown.join(", ")));
-        }
-        out.mesh.notes.push(note);
-    }
-    Ok(out)
 }
 
 /// The `gltf` crate's validation of a document, after the one check its own validation
@@ -492,58 +585,14 @@ impl Walk<'_> {
             .ok_or_else(|| format!("{at}: has no POSITION attribute"))?;
         let pos = floats(self.buffers, &pos_acc, 3, false).map_err(|e| format!("{at}.attributes.POSITION: {e}"))?;
         let nv = pos.len() / 3;
-        let index: Vec<u32> = match p.indices() {
-            Some(acc) => {
-                let ix = indices(self.buffers, &acc).map_err(|e| format!("{at}.indices: {e}"))?;
-                if let Some(bad) = ix.iter().find(|&&i| i as usize >= nv) {
-                    return Err(format!(
-                        "{at}.indices: index {bad} is out of range (POSITION has {nv} vertices)"
-                    ));
-                }
-                ix
-            }
-            None => (0..nv as u32).collect(),
-        };
+        let index = self.primitive_indices(p, nv, at)?;
         let material_index = p.material().index();
         let (material, set) = match material_index {
             Some(k) => (k as u32, self.tex_sets.get(k).copied().flatten()),
             None => (self.default_material, None),
         };
-        let uv: Option<Vec<f32>> = match set {
-            Some(s) => {
-                let acc = p.get(&::gltf::Semantic::TexCoords(s)).ok_or_else(|| {
-                    format!(
-                        "{at}: its material materials[{material}] has a baseColorTexture on TEXCOORD_{s}, which the \
-                         primitive lacks"
-                    )
-                })?;
-                let v =
-                    floats(self.buffers, &acc, 2, true).map_err(|e| format!("{at}.attributes.TEXCOORD_{s}: {e}"))?;
-                if v.len() / 2 != nv {
-                    return Err(format!(
-                        "{at}.attributes.TEXCOORD_{s}: {} elements, POSITION has {nv}",
-                        v.len() / 2
-                    ));
-                }
-                Some(v)
-            }
-            None => None,
-        };
-        let corners: Vec<[u32; 3]> = match mode {
-            Mode::Triangles => index.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
-            Mode::TriangleStrip => (0..index.len().saturating_sub(2))
-                .map(|i| {
-                    if i % 2 == 0 {
-                        [index[i], index[i + 1], index[i + 2]]
-                    } else {
-                        [index[i + 1], index[i], index[i + 2]]
-                    }
-                })
-                .collect(),
-            _ => (1..index.len().saturating_sub(1))
-                .map(|i| [index[0], index[i], index[i + 1]])
-                .collect(),
-        };
+        let uv = self.primitive_uvs(p, set, material, nv, at)?;
+        let corners = triangle_corners(mode, &index);
         // A mirroring matrix turns the winding; the specification keeps the front face.
         let flip = m.determinant() < 0.0;
         if material_index.is_none() {
@@ -578,6 +627,75 @@ impl Walk<'_> {
             self.out.mesh.uvs.push(t);
         }
         Ok(())
+    }
+
+    /// Primitive `p`'s vertex indices (`at` its JSON path), each checked against its `nv`
+    /// vertices; without an index accessor, every vertex in order.
+    fn primitive_indices(&self, p: &::gltf::Primitive, nv: usize, at: &str) -> std::result::Result<Vec<u32>, String> {
+        Ok(match p.indices() {
+            Some(acc) => {
+                let ix = indices(self.buffers, &acc).map_err(|e| format!("{at}.indices: {e}"))?;
+                if let Some(bad) = ix.iter().find(|&&i| i as usize >= nv) {
+                    return Err(format!(
+                        "{at}.indices: index {bad} is out of range (POSITION has {nv} vertices)"
+                    ));
+                }
+                ix
+            }
+            None => (0..nv as u32).collect(),
+        })
+    }
+
+    /// Primitive `p`'s uvs (TEXCOORD_`set`, which its material `material`'s base colour
+    /// texture reads), one pair for each of its `nv` vertices; `None` without a texture.
+    fn primitive_uvs(
+        &self,
+        p: &::gltf::Primitive,
+        set: Option<u32>,
+        material: u32,
+        nv: usize,
+        at: &str,
+    ) -> std::result::Result<Option<Vec<f32>>, String> {
+        Ok(match set {
+            Some(s) => {
+                let acc = p.get(&::gltf::Semantic::TexCoords(s)).ok_or_else(|| {
+                    format!(
+                        "{at}: its material materials[{material}] has a baseColorTexture on TEXCOORD_{s}, which the \
+                         primitive lacks"
+                    )
+                })?;
+                let v =
+                    floats(self.buffers, &acc, 2, true).map_err(|e| format!("{at}.attributes.TEXCOORD_{s}: {e}"))?;
+                if v.len() / 2 != nv {
+                    return Err(format!(
+                        "{at}.attributes.TEXCOORD_{s}: {} elements, POSITION has {nv}",
+                        v.len() / 2
+                    ));
+                }
+                Some(v)
+            }
+            None => None,
+        })
+    }
+}
+
+/// The triangles (three indices each) of a primitive drawn in `mode` (triangles, a strip
+/// or a fan) over `index`.
+fn triangle_corners(mode: Mode, index: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => index.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        Mode::TriangleStrip => (0..index.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [index[i], index[i + 1], index[i + 2]]
+                } else {
+                    [index[i + 1], index[i], index[i + 2]]
+                }
+            })
+            .collect(),
+        _ => (1..index.len().saturating_sub(1))
+            .map(|i| [index[0], index[i], index[i + 1]])
+            .collect(),
     }
 }
 

@@ -107,11 +107,33 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
         line: Some(line),
         message,
     })?;
+    let (models, mut out) = parse_obj(source, rel, limit, &shown, &clean)?;
+    let models = select_groups(models, groups, &shown)?;
+    add_triangles(&models, &mut out);
+    if out.unassigned > 0 {
+        out.materials.push(MtlData {
+            used_by: shown.clone(),
+            ..MtlData::grey("(default)".into(), shown)
+        });
+    }
+    Ok(out)
+}
+
+/// tobj's models of `clean`, the sanitized text of the OBJ file `rel` (`shown` in
+/// messages), and a mesh without triangles yet: the materials of its material libraries
+/// (each at most `limit` bytes), the notes on them and the files read.
+fn parse_obj(
+    source: &Source,
+    rel: &Path,
+    limit: u64,
+    shown: &Path,
+    clean: &str,
+) -> Result<(Vec<tobj::Model>, LoadedMesh)> {
     let dir = rel.parent().map(Path::to_path_buf).unwrap_or_default();
     let mtl_error: RefCell<Option<Error>> = RefCell::new(None);
     let materials: RefCell<Vec<MtlData>> = RefCell::new(Vec::new());
     let notes: RefCell<Vec<String>> = RefCell::new(Vec::new());
-    let inputs: RefCell<Vec<PathBuf>> = RefCell::new(vec![shown.clone()]);
+    let inputs: RefCell<Vec<PathBuf>> = RefCell::new(vec![shown.to_path_buf()]);
     let opts = tobj::LoadOptions {
         triangulate: true,
         single_index: false,
@@ -128,7 +150,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
             let parsed = source
                 .read_limited(&p, limit)
                 .map_err(|e| Error::Mesh {
-                    path: shown.clone(),
+                    path: shown.to_path_buf(),
                     line: None,
                     message: format!("its material library could not be read: {e}"),
                 })
@@ -137,7 +159,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
                 Ok((list, n)) => {
                     inputs.borrow_mut().push(source.display(&p));
                     for mut m in list {
-                        m.used_by = shown.clone();
+                        m.used_by = shown.to_path_buf();
                         names.push_str("newmtl ");
                         names.push_str(&m.name);
                         names.push('\n');
@@ -155,20 +177,26 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
         tobj::load_mtl_buf(&mut Cursor::new(names.as_bytes()))
     })
     .map_err(|e| Error::Mesh {
-        path: shown.clone(),
+        path: shown.to_path_buf(),
         line: None,
         message: format!("OBJ parse error: {e}"),
     })?;
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
     }
-    let mut out = LoadedMesh {
+    let out = LoadedMesh {
         materials: materials.into_inner(),
         notes: notes.into_inner(),
         inputs: inputs.into_inner(),
         ..Default::default()
     };
-    let models = match groups {
+    Ok((models, out))
+}
+
+/// With `groups`, only the models of those `o`/`g` groups (each must exist in the OBJ
+/// file `shown`); without, all of them.
+fn select_groups(models: Vec<tobj::Model>, groups: Option<&[String]>, shown: &Path) -> Result<Vec<tobj::Model>> {
+    Ok(match groups {
         None => models,
         Some(names) => {
             if let Some(missing) = names.iter().find(|g| !models.iter().any(|m| &m.name == *g)) {
@@ -180,7 +208,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
                 }
                 let shown_have: Vec<&str> = have.iter().take(40).copied().collect();
                 return Err(Error::Mesh {
-                    path: shown,
+                    path: shown.to_path_buf(),
                     line: None,
                     message: format!(
                         "has no group `{missing}` (its o/g groups: {}{})",
@@ -195,15 +223,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
             }
             models.into_iter().filter(|m| names.contains(&m.name)).collect()
         }
-    };
-    add_triangles(&models, &mut out);
-    if out.unassigned > 0 {
-        out.materials.push(MtlData {
-            used_by: shown.clone(),
-            ..MtlData::grey("(default)".into(), shown)
-        });
-    }
-    Ok(out)
+    })
 }
 
 /// Appends the triangles of tobj's models to `out` (with their corner uvs, mapped by the
@@ -280,8 +300,6 @@ fn finite_numbers(words: &[&str], what: &str) -> std::result::Result<Vec<f32>, S
 /// colours dropped, `vt u` completed to `vt u 0`, point and line elements dropped. Line
 /// numbers are kept (a dropped line stays as an empty one), so every error names the
 /// line of the input. Errors: (line, message).
-/// Long by design: one `match` arm per OBJ statement, each a few lines of checks; split
-/// up, the arms would only move apart from the statement they check.
 pub fn sanitize(text: &str) -> std::result::Result<String, (usize, String)> {
     let (mut nv, mut nvt, mut nvn) = (0i64, 0i64, 0i64);
     let mut out = String::with_capacity(text.len());
@@ -296,83 +314,19 @@ pub fn sanitize(text: &str) -> std::result::Result<String, (usize, String)> {
         let err = |m: String| (line, m);
         match key {
             "v" => {
-                if !(args.len() == 3 || args.len() == 4 || args.len() == 6) {
-                    return Err(err(format!(
-                        "vertex needs 3 coordinates (and optionally w or an RGB colour), found {} values: `{}`",
-                        args.len(),
-                        quote(l)
-                    )));
-                }
-                let c = finite_numbers(&args[..3], "vertex coordinate").map_err(err)?;
-                let mut p = [c[0], c[1], c[2]];
-                if args.len() == 4 {
-                    let w = finite_numbers(&args[3..4], "vertex weight w").map_err(err)?[0];
-                    if w == 0.0 {
-                        return Err(err("vertex weight w is 0".into()));
-                    }
-                    p = p.map(|x| x / w);
-                    if p.iter().any(|x| !x.is_finite()) {
-                        return Err(err(format!("vertex divided by w = {w} is not finite")));
-                    }
-                }
-                if args.len() == 6 {
-                    finite_numbers(&args[3..6], "vertex colour").map_err(err)?;
-                }
-                out.push_str(&format!("v {} {} {}\n", p[0], p[1], p[2]));
+                out.push_str(&vertex(args, l).map_err(err)?);
                 nv += 1;
             }
             "vt" => {
-                if args.is_empty() || args.len() > 3 {
-                    return Err(err(format!(
-                        "texture coordinate needs 1 to 3 numbers, found {}: `{}`",
-                        args.len(),
-                        quote(l)
-                    )));
-                }
-                let t = finite_numbers(args, "texture coordinate").map_err(err)?;
-                out.push_str(&format!("vt {} {}\n", t[0], t.get(1).copied().unwrap_or(0.0)));
+                out.push_str(&texture_coordinate(args, l).map_err(err)?);
                 nvt += 1;
             }
             "vn" => {
-                if args.len() != 3 {
-                    return Err(err(format!(
-                        "normal needs 3 numbers, found {}: `{}`",
-                        args.len(),
-                        quote(l)
-                    )));
-                }
-                let n = finite_numbers(args, "normal component").map_err(err)?;
-                out.push_str(&format!("vn {} {} {}\n", n[0], n[1], n[2]));
+                out.push_str(&normal(args, l).map_err(err)?);
                 nvn += 1;
             }
             "f" => {
-                if args.len() < 3 {
-                    return Err(err(format!("face needs at least 3 vertices: `{}`", quote(l))));
-                }
-                for r in args {
-                    let parts: Vec<&str> = r.split('/').collect();
-                    if parts.len() > 3 {
-                        return Err(err(format!("face reference `{}` has more than 3 indices", quote(r))));
-                    }
-                    if parts[0].is_empty() {
-                        return Err(err(format!("face reference `{}` has no vertex index", quote(r))));
-                    }
-                    for (k, (what, n)) in [("vertex", nv), ("texture coordinate", nvt), ("normal", nvn)]
-                        .into_iter()
-                        .enumerate()
-                    {
-                        let Some(s) = parts.get(k).filter(|s| !s.is_empty()) else {
-                            continue;
-                        };
-                        match s.parse::<i64>() {
-                            Ok(x) if (x > 0 && x <= n) || (x < 0 && -x <= n) => {}
-                            Ok(x) => {
-                                return Err(err(format!("face refers to {what} {x}, but {n} are defined before it")))
-                            }
-                            Err(_) => return Err(err(format!("face reference `{}` is not an index", quote(r)))),
-                        }
-                    }
-                }
+                check_face(args, l, [nv, nvt, nvn]).map_err(err)?;
                 out.push_str(l);
                 out.push('\n');
             }
@@ -394,6 +348,91 @@ pub fn sanitize(text: &str) -> std::result::Result<String, (usize, String)> {
         }
     }
     Ok(out)
+}
+
+/// A `v` statement's line as tobj reads it (`args` its words after `v`, `l` the whole
+/// line): 3 finite coordinates, divided by `w` where a fourth is given; an RGB colour after
+/// them checked and dropped.
+fn vertex(args: &[&str], l: &str) -> std::result::Result<String, String> {
+    if !(args.len() == 3 || args.len() == 4 || args.len() == 6) {
+        return Err(format!(
+            "vertex needs 3 coordinates (and optionally w or an RGB colour), found {} values: `{}`",
+            args.len(),
+            quote(l)
+        ));
+    }
+    let c = finite_numbers(&args[..3], "vertex coordinate")?;
+    let mut p = [c[0], c[1], c[2]];
+    if args.len() == 4 {
+        let w = finite_numbers(&args[3..4], "vertex weight w")?[0];
+        if w == 0.0 {
+            return Err("vertex weight w is 0".into());
+        }
+        p = p.map(|x| x / w);
+        if p.iter().any(|x| !x.is_finite()) {
+            return Err(format!("vertex divided by w = {w} is not finite"));
+        }
+    }
+    if args.len() == 6 {
+        finite_numbers(&args[3..6], "vertex colour")?;
+    }
+    Ok(format!("v {} {} {}\n", p[0], p[1], p[2]))
+}
+
+/// A `vt` statement's line as tobj reads it: 1 to 3 finite numbers, the first two kept
+/// (`v` 0 where it is missing).
+fn texture_coordinate(args: &[&str], l: &str) -> std::result::Result<String, String> {
+    if args.is_empty() || args.len() > 3 {
+        return Err(format!(
+            "texture coordinate needs 1 to 3 numbers, found {}: `{}`",
+            args.len(),
+            quote(l)
+        ));
+    }
+    let t = finite_numbers(args, "texture coordinate")?;
+    Ok(format!("vt {} {}\n", t[0], t.get(1).copied().unwrap_or(0.0)))
+}
+
+/// A `vn` statement's line as tobj reads it: 3 finite numbers.
+fn normal(args: &[&str], l: &str) -> std::result::Result<String, String> {
+    if args.len() != 3 {
+        return Err(format!("normal needs 3 numbers, found {}: `{}`", args.len(), quote(l)));
+    }
+    let n = finite_numbers(args, "normal component")?;
+    Ok(format!("vn {} {} {}\n", n[0], n[1], n[2]))
+}
+
+/// Checks an `f` statement: at least 3 vertex references, each of at most 3 indices
+/// that refer to a vertex, texture coordinate and normal defined before it (`defined`:
+/// how many of each).
+fn check_face(args: &[&str], l: &str, defined: [i64; 3]) -> std::result::Result<(), String> {
+    let [nv, nvt, nvn] = defined;
+    if args.len() < 3 {
+        return Err(format!("face needs at least 3 vertices: `{}`", quote(l)));
+    }
+    for r in args {
+        let parts: Vec<&str> = r.split('/').collect();
+        if parts.len() > 3 {
+            return Err(format!("face reference `{}` has more than 3 indices", quote(r)));
+        }
+        if parts[0].is_empty() {
+            return Err(format!("face reference `{}` has no vertex index", quote(r)));
+        }
+        for (k, (what, n)) in [("vertex", nv), ("texture coordinate", nvt), ("normal", nvn)]
+            .into_iter()
+            .enumerate()
+        {
+            let Some(s) = parts.get(k).filter(|s| !s.is_empty()) else {
+                continue;
+            };
+            match s.parse::<i64>() {
+                Ok(x) if (x > 0 && x <= n) || (x < 0 && -x <= n) => {}
+                Ok(x) => return Err(format!("face refers to {what} {x}, but {n} are defined before it")),
+                Err(_) => return Err(format!("face reference `{}` is not an index", quote(r))),
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Parses one MTL file (`shown` in messages; `dir` the OBJ's directory, against which

@@ -1,0 +1,458 @@
+//! The [`Builder`]: a scene's objects read and placed one after another (triangles, BVH,
+//! materials), then the scene finished (textures, bounds, camera, emitters, CWBVH).
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::assemble::object_transform;
+use super::memory::plan_memory;
+use super::{config, emitter, gltf_file, obj, source, texture, Camera, LoadReport, Scene, SceneObject, Source};
+use crate::error::{Error, Result};
+use crate::geom::bvh;
+use crate::geom::transform::{xform_point, xform_vector, Affine};
+use crate::geom::Transform;
+use crate::layout::{BvhNode, GpuLight, Material, TextureInfo, Tri, TriUv, NONE};
+use crate::limits::{Limits, Part};
+use crate::params::SolverParams;
+
+/// A scene under construction: the objects added so far, their triangles, BVH nodes and
+/// materials, and what loading them reported.
+#[derive(Default)]
+pub(super) struct Builder {
+    pub(super) limits: Limits,
+    pub(super) objects: Vec<SceneObject>,
+    pub(super) tris: Vec<Tri>,
+    pub(super) uvs: Vec<[f32; 6]>,
+    pub(super) bvh: Vec<BvhNode>,
+    pub(super) materials: Vec<obj::MtlData>,
+    /// Whether each material's object lets it emit.
+    pub(super) material_emits: Vec<bool>,
+    pub(super) report: LoadReport,
+    /// glTF objects' lights (`[[light]]` tables in world space) with their object's name.
+    pub(super) gltf_lights: Vec<(String, gltf_file::GltfLight)>,
+    /// The first glTF camera, in world space.
+    pub(super) gltf_camera: Option<config::CameraEntry>,
+}
+
+impl Builder {
+    /// Reads object `i`'s mesh, places its triangles, BVH and materials after those
+    /// already added, and records its transform.
+    pub(super) fn add_object(
+        &mut self,
+        source: &Source,
+        scene_path: &Path,
+        i: usize,
+        e: &config::ObjectEntry,
+    ) -> Result<()> {
+        let transform = object_transform(scene_path, i, e)?;
+        let expanded = source::expand_scenes_var(&e.mesh);
+        let rel = expanded.as_deref().unwrap_or(Path::new(&e.mesh));
+        let (mut mesh, gltf) = self.read_mesh(source, scene_path, i, e, rel, expanded.as_deref())?;
+        self.report.notes.append(&mut mesh.notes);
+        self.report.inputs.append(&mut mesh.inputs);
+        self.report.duplicate_dropped += mesh.duplicates;
+        self.report.degenerate_dropped += mesh.degenerate;
+        self.report.faces_without_material += mesh.unassigned;
+        let mat_base = self.materials.len() as u32;
+        for t in &mut mesh.tris {
+            t.material += mat_base;
+        }
+        let has_uv = !mesh.uvs.is_empty();
+        let mut uvs = mesh.uvs;
+        let mut nodes = bvh::build(&mut mesh.tris, &mut uvs, &e.mesh)?;
+        let tri_offset = self.tris.len() as u32;
+        let node_offset = self.bvh.len() as u32;
+        bvh::rebase(&mut nodes, node_offset, tri_offset);
+        let area = object_area(&mesh.tris);
+        let name = self.object_name(scene_path, i, e)?;
+        if let Some(g) = gltf {
+            self.place_gltf(g, &transform, &name);
+        }
+        let emits = e.emission.unwrap_or(true);
+        if !emits {
+            for m in mesh.materials.iter().filter(|m| m.emission.iter().any(|&c| c > 0.0)) {
+                if !self.report.emissive_materials_ignored.contains(&m.name) {
+                    self.report.emissive_materials_ignored.push(m.name.clone());
+                }
+            }
+        }
+        self.objects.push(SceneObject {
+            emits,
+            name,
+            transform,
+            to_world: transform.to_world(),
+            to_object: transform.to_object(),
+            tri_offset,
+            tri_count: mesh.tris.len() as u32,
+            bvh_root: node_offset,
+            area,
+        });
+        let n = mesh.tris.len();
+        self.tris.extend(mesh.tris);
+        if has_uv {
+            self.uvs.resize(tri_offset as usize, [0.0; 6]);
+            self.uvs.extend(uvs);
+        }
+        self.uvs.resize(tri_offset as usize + n, [0.0; 6]);
+        self.bvh.extend(nodes);
+        self.material_emits.extend(mesh.materials.iter().map(|_| emits));
+        self.materials.extend(mesh.materials);
+        Ok(())
+    }
+
+    /// Object `i`'s name (`name`, default `object<i>`): not empty, and not an earlier
+    /// object's.
+    fn object_name(&self, scene_path: &Path, i: usize, e: &config::ObjectEntry) -> Result<String> {
+        let name = e.name.clone().unwrap_or_else(|| format!("object{i}"));
+        if name.trim().is_empty() || self.objects.iter().any(|o| o.name == name) {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: format!("object[{i}].name"),
+                message: if name.trim().is_empty() {
+                    "is empty".into()
+                } else if e.name.is_none() {
+                    format!(
+                        "this object has no `name`, and its default `{name}` names an earlier object: \
+                         names must be unique, so give it one"
+                    )
+                } else {
+                    format!("`{name}` names an earlier object too: names must be unique")
+                },
+            });
+        }
+        Ok(name)
+    }
+
+    /// Records a glTF object's lights and, if none was met before, its camera, placed in
+    /// the world by the object's transform.
+    fn place_gltf(&mut self, g: gltf_file::LoadedGltf, transform: &Transform, name: &str) {
+        let to_world = transform.to_world();
+        for mut l in g.lights {
+            place_light_table(&mut l.table, &to_world);
+            self.gltf_lights.push((name.to_string(), l));
+        }
+        if let (None, Some(c)) = (&self.gltf_camera, g.camera) {
+            let p = xform_point(&to_world, c.position);
+            let (w, h) = match c.aspect {
+                Some(a) => (((256.0 * a).round() as u32).clamp(1, 16384), 256),
+                None => (256, 256),
+            };
+            self.gltf_camera = Some(config::CameraEntry {
+                position: p.to_array(),
+                target: (p + xform_vector(&to_world, c.forward)).to_array(),
+                up: xform_vector(&to_world, c.up).to_array(),
+                fov: c.fov,
+                width: w,
+                height: h,
+            });
+        }
+    }
+
+    /// Object `i`'s mesh `rel` (`expanded` from `$MESHRAD_SCENES` if it named it), within
+    /// the memory limit, tessellated as asked.
+    fn read_mesh(
+        &self,
+        source: &Source,
+        scene_path: &Path,
+        i: usize,
+        e: &config::ObjectEntry,
+        rel: &Path,
+        expanded: Option<&Path>,
+    ) -> Result<(obj::LoadedMesh, Option<gltf_file::LoadedGltf>)> {
+        let key = |f: &str| format!("object[{i}].{f}");
+        let tess = e.tessellate.unwrap_or(0);
+        if tess > 8 {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: key("tessellate"),
+                message: format!("{tess} is above 8 (65536× the triangles)"),
+            });
+        }
+        if e.mesh.trim().is_empty() {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: key("mesh"),
+                message: "is empty: give the OBJ file's path".into(),
+            });
+        }
+        // The OBJ text, its normalised copy and tobj's arrays: about 4× the file.
+        let read_limit = crate::limits::MAX_MESH_BYTES.min(self.limits.max_memory / 4);
+        let groups = e.group.as_ref().map(config::Groups::names);
+        if groups
+            .as_ref()
+            .is_some_and(|g| g.is_empty() || g.iter().any(|n| n.trim().is_empty()))
+        {
+            return Err(Error::SceneValue {
+                path: scene_path.into(),
+                key: key("group"),
+                message: "names no group (give a group name of the OBJ, or a list of them)".into(),
+            });
+        }
+        let loaded = if gltf_file::is_gltf(rel) {
+            gltf_file::load(source, rel, read_limit, groups.as_deref())
+                .map(|mut g| (std::mem::take(&mut g.mesh), Some(g)))
+        } else {
+            obj::load(source, rel, read_limit, groups.as_deref()).map(|m| (m, None))
+        };
+        let (mut mesh, gltf) = loaded.map_err(|err| match (expanded, err) {
+            (Some(p), Error::Io { path, error }) if !p.exists() => Error::Io {
+                path,
+                error: std::io::Error::new(
+                    error.kind(),
+                    format!(
+                        "{error} (object[{i}].mesh starts with ${}: set it to the folder of the public \
+                         scenes, default {}; scenes/README.md says where each comes from)",
+                        source::SCENES_VAR,
+                        source::SCENES_DEFAULT
+                    ),
+                ),
+            },
+            (_, err) => err,
+        })?;
+        let after = mesh.tris.len() as f64 * 4f64.powi(tess as i32);
+        let loaded = self.tris.len() as f64;
+        self.limits.check(
+            scene_path,
+            &key(if tess > 0 { "tessellate" } else { "mesh" }),
+            &[Part {
+                what: format!(
+                    "{} triangles ({} in {}{})",
+                    (loaded + after) as u64,
+                    mesh.tris.len(),
+                    e.mesh,
+                    if tess > 0 {
+                        format!(" × 4^{tess}")
+                    } else {
+                        String::new()
+                    }
+                ),
+                bytes: (loaded + after) * crate::limits::BYTES_PER_TRIANGLE as f64,
+            }],
+        )?;
+        for _ in 0..tess {
+            let (t, u) = obj::tessellate(&mesh.tris, &mesh.uvs);
+            mesh.tris = t;
+            mesh.uvs = u;
+        }
+        if mesh.tris.is_empty() {
+            return Err(Error::Mesh {
+                path: source.display(rel),
+                line: None,
+                message: "no (non-degenerate) triangles".into(),
+            });
+        }
+        Ok((mesh, gltf))
+    }
+
+    /// The GPU materials: each MTL material checked (albedo below 1, a texture's mean
+    /// albedo too), its texture loaded once however many materials use it.
+    fn resolve_materials(
+        &mut self,
+        source: &Source,
+        srgb: &[f32; 256],
+    ) -> Result<(Vec<Material>, Vec<TextureInfo>, Vec<u32>)> {
+        let mut textures = Vec::new();
+        let mut texels = Vec::new();
+        let mut texture_paths: Vec<(PathBuf, u32)> = Vec::new();
+        let mut materials = Vec::new();
+        for m in &self.materials {
+            let kd = m.kd;
+            let bad_kd = |msg: &str| Error::Mesh {
+                path: m.origin.clone(),
+                line: m.kd_line,
+                message: format!(
+                    "material `{}` (used by {}): Kd {kd:?} {msg}",
+                    m.name,
+                    m.used_by.display()
+                ),
+            };
+            if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
+                return Err(bad_kd("must be finite and non-negative"));
+            }
+            let texture = match &m.texture {
+                None => {
+                    if kd.iter().any(|&c| c >= 1.0) {
+                        return Err(bad_kd("is an albedo ≥ 1: the surface would create energy"));
+                    }
+                    NONE
+                }
+                Some(t) => {
+                    if kd.iter().any(|&c| c > 1.0) {
+                        return Err(bad_kd("is above 1"));
+                    }
+                    match texture_paths.iter().position(|p| *p == (t.clone(), m.wrap)) {
+                        Some(k) => k as u32,
+                        None => {
+                            let (w, h, px) = match &m.texture_data {
+                                Some(bytes) => texture::decode(bytes, &source.display(t))?,
+                                None => {
+                                    self.report.inputs.push(source.display(t));
+                                    texture::load(source, t)?
+                                }
+                            };
+                            let info = TextureInfo {
+                                offset: texels.len() as u32,
+                                width: w,
+                                height: h,
+                                wrap: m.wrap,
+                            };
+                            texels.extend(px);
+                            let mean = texture::mean(&texels, &info, srgb) * Vec3::from(kd);
+                            if mean.max_element() >= 1.0 {
+                                return Err(Error::Texture {
+                                    path: source.display(t),
+                                    message: format!(
+                                        "mean albedo {mean} with Kd {kd:?} is ≥ 1: the surface would create energy"
+                                    ),
+                                });
+                            }
+                            textures.push(info);
+                            texture_paths.push((t.clone(), m.wrap));
+                            (textures.len() - 1) as u32
+                        }
+                    }
+                }
+            };
+            materials.push(Material { kd, texture });
+        }
+        Ok((materials, textures, texels))
+    }
+
+    pub(super) fn finish(
+        mut self,
+        path: &Path,
+        source: &Source,
+        lights: Vec<GpuLight>,
+        camera: Option<&config::CameraEntry>,
+        params: &SolverParams,
+    ) -> Result<Scene> {
+        let srgb = texture::srgb_table();
+        let (materials, textures, texels) = self.resolve_materials(source, &srgb)?;
+        let uvs = if textures.is_empty() {
+            Vec::new()
+        } else {
+            self.uvs.iter().map(|&uv| TriUv { uv }).collect()
+        };
+        let (lo, hi, scale) = world_bounds(&self.objects, &self.tris).map_err(|message| Error::SceneValue {
+            path: path.into(),
+            key: "object".into(),
+            message,
+        })?;
+        let camera = match camera {
+            Some(c) => Camera::from_entry(c, path)?,
+            None => Camera::framing(lo, hi),
+        };
+        self.report.triangles = self.tris.len();
+        self.report.textures = textures.len();
+        self.report.planned_bytes =
+            plan_memory(&self.limits, path, self.tris.len(), params, &camera, self.objects.len())?;
+        let emission: Vec<Vec3> = self
+            .materials
+            .iter()
+            .zip(&self.material_emits)
+            .map(|(m, &on)| if on { Vec3::from(m.emission) } else { Vec3::ZERO })
+            .collect();
+        let placed: Vec<_> = self
+            .objects
+            .iter()
+            .map(|o| (o.to_world, o.tri_offset..o.tri_offset + o.tri_count))
+            .collect();
+        let emitters = emitter::Emitters::new(
+            &self.tris,
+            &placed,
+            |t| emission[self.tris[t as usize].material as usize],
+            params.emitter_samples,
+        );
+        self.report.emitting_triangles = emitters.list.len();
+        let ranges: Vec<_> = self
+            .objects
+            .iter()
+            .map(|o| o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize)
+            .collect();
+        let cw = bvh::CwForest::build(&self.tris, &ranges);
+        Ok(Scene {
+            cw,
+            sky: None,
+            emission,
+            emitters,
+            path: path.into(),
+            objects: self.objects,
+            tris: self.tris,
+            uvs,
+            bvh: self.bvh,
+            materials,
+            material_names: self.materials.iter().map(|m| m.name.clone()).collect(),
+            textures,
+            texels,
+            srgb,
+            light_names: (0..lights.len()).map(|i| format!("light{i}")).collect(),
+            light_tables: Vec::new(),
+            lights,
+            camera,
+            bounds: (lo, hi),
+            scale,
+            report: self.report,
+            limits: self.limits,
+        })
+    }
+}
+
+/// Moves a glTF light's `[[light]]` table from its file's space to the world by its
+/// object's placement: `position` as a point, `direction` as a unit vector.
+fn place_light_table(t: &mut toml::Table, to_world: &Affine) {
+    let get = |t: &toml::Table, k: &str| -> Option<Vec3> {
+        let a = t.get(k)?.as_array()?;
+        let f = |i: usize| a.get(i).and_then(toml::Value::as_float).map(|x| x as f32);
+        Some(Vec3::new(f(0)?, f(1)?, f(2)?))
+    };
+    let arr = |v: Vec3| toml::Value::Array(v.to_array().iter().map(|&x| toml::Value::Float(x as f64)).collect());
+    if let Some(p) = get(t, "position") {
+        t.insert("position".into(), arr(xform_point(to_world, p)));
+    }
+    if let Some(d) = get(t, "direction") {
+        t.insert("direction".into(), arr(xform_vector(to_world, d).normalize_or_zero()));
+    }
+}
+
+/// The world-space bounds of object `obj`'s triangles (of `tris`, the scene's) under
+/// `obj`'s transform.
+pub fn object_box(obj: &SceneObject, tris: &[Tri]) -> (Vec3, Vec3) {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in &tris[obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize] {
+        for v in [t.v0, t.v1, t.v2] {
+            let w = xform_point(&obj.to_world, Vec3::from(v));
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    (lo, hi)
+}
+
+/// World-space bounds of every object and the length of their diagonal.
+pub(super) fn world_bounds(objects: &[SceneObject], tris: &[Tri]) -> std::result::Result<(Vec3, Vec3, f32), String> {
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for o in objects {
+        let (a, b) = object_box(o, tris);
+        lo = lo.min(a);
+        hi = hi.max(b);
+    }
+    let scale = (hi - lo).length();
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err("the geometry's bounds are empty or not finite".into());
+    }
+    Ok((lo, hi, scale))
+}
+
+/// The surface area (one side) of an object's triangles, in its own space.
+fn object_area(tris: &[Tri]) -> f64 {
+    tris.iter()
+        .map(|t| {
+            let v0 = Vec3::from(t.v0).as_dvec3();
+            (Vec3::from(t.v1).as_dvec3() - v0)
+                .cross(Vec3::from(t.v2).as_dvec3() - v0)
+                .length()
+                * 0.5
+        })
+        .sum()
+}
