@@ -393,7 +393,6 @@ impl Builder {
             bounds: (lo, hi),
             scale,
             report: self.report,
-            limits: self.limits,
         })
     }
 }

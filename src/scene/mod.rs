@@ -36,7 +36,6 @@ use crate::geom::bvh;
 use crate::geom::transform::Affine;
 use crate::geom::Transform;
 use crate::layout::{BvhNode, GpuLight, Material, ObjectInfo, TextureInfo, Tri, TriUv};
-use crate::limits::Limits;
 
 /// One scene object.
 #[derive(Clone, Debug)]
@@ -131,9 +130,6 @@ pub struct Scene {
     pub bounds: (Vec3, Vec3),
     pub scale: f32,
     pub report: LoadReport,
-    /// The run's resource limits; what they leave after the planned parts bounds the
-    /// transport's links (`transport::links`).
-    pub limits: Limits,
 }
 
 /// A surface point reached by a ray, in its object's space: what a sender read needs

@@ -2,7 +2,7 @@
 //! un-shot energy, breadth-first over levels, with the refinement oracle and pull-down.
 //!
 //! The loop is written once, here; a [`Backend`] owns the per-node arrays and runs each
-//! stage where they live (the CPU reference in [`cpu`], Vulkan compute in `crate::gpu`).
+//! stage where they live (the CPU reference in [`cpu`], Vulkan compute in `crate::device`).
 //! Per-ray state never leaves a backend; between stages only counts cross.
 
 pub mod coverage;
