@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Accuracy of the old (2ebc7c1) and new binaries in one run, at the 256 area-uniform points
-# of the cached converged references (benches/results/cpu/area), CPU backend, defaults:
-# `meshrad probe SCENE --points P`, errors by benches/results/cpu/area/errors_at_points.py.
+# of the cached converged references (experiments/area-accuracy), CPU backend, defaults:
+# `meshrad probe SCENE --points P`, errors by experiments/area-accuracy/errors_at_points.py.
 # Old binaries read the scene files of their commit (OLD_SCENES: cornell_box.toml and
 # cornell_buddha.toml from 2ebc7c1); the new one reads today's (emission = false keeps
 # the light quad a plain surface, as the old code did).
@@ -9,7 +9,7 @@
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 old=$1 new=$2 old_scenes=$3
-a=benches/results/cpu/area
+a=experiments/area-accuracy
 out=$(mktemp -d)
 : >"$here/errors.txt"
 for s in cornell cornell_buddha; do

@@ -7,14 +7,14 @@
 # Per configuration F:EPS_REL: the basis read (final_gather = 0; the later bounces' field
 # is what the basis carries) at the 256 area-uniform points of the cached converged
 # references (the spot-lit box, the area-lit box, Cornell + Buddha), errors by
-# benches/results/cpu/area/errors_at_points.py; then the embedded box's default CPU solve,
+# experiments/area-accuracy/errors_at_points.py; then the embedded box's default CPU solve,
 # all configurations and REF interleaved, ROUNDS rounds (default 5).
 # Usage: bash run.sh BIN REF F:EPS... ; writes accuracy.txt and times.csv beside this file.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 bin=$1 ref_bin=$2; shift 2
 rounds=${ROUNDS:-5}
-a=benches/results/cpu/area
+a=experiments/area-accuracy
 tmp=$(mktemp -d)
 : >"$here/accuracy.txt"
 for cfg in "$@"; do
@@ -23,7 +23,7 @@ for cfg in "$@"; do
   for s in cornell cornell_area cornell_buddha; do
     case $s in
       cornell) scene=scenes/cornell_box.toml; ref=$a/cornell-area-converged-reference.csv ;;
-      cornell_area) scene=scenes/cornell_area.toml; ref=benches/results/cpu/emitters/accuracy/cornell_area-area-converged-reference.csv ;;
+      cornell_area) scene=scenes/cornell_area.toml; ref=experiments/emitters/cpu/accuracy/cornell_area-area-converged-reference.csv ;;
       *) scene=scenes/shared/cornell_buddha.toml; ref=$a/cornell_buddha-area-converged-reference.csv ;;
     esac
     tail -n +3 "$ref" | cut -d, -f1-6 | tr ',' ' ' >"$tmp/$s.txt"
