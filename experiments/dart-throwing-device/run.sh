@@ -8,11 +8,12 @@
 # run, seconds of the dart throwing, seconds of the whole hierarchy (upload and the
 # arrangement on the device included), nodes per level, device; writes runs.txt beside
 # this script, and says where the two node sets differ.
-# Usage: bash run.sh [BIN] [scenes...]   (default target/release/meshrad cornell)
+# Usage: bash experiments/dart-throwing-device/run.sh [COMMIT|BIN] [scenes...]
+#   (default target/release/meshrad cornell; a commit is built by experiments/build-at.sh)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(cd "$here/../../.." && pwd)
-bin=${1:-target/release/meshrad}
+root=$(cd "$here/../.." && pwd)
+bin=$(bash "$here/../build-at.sh" "${1:-target/release/meshrad}")
 shift || true
 scenes=("$@")
 [ ${#scenes[@]} -gt 0 ] || scenes=(cornell)

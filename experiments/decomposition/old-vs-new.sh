@@ -2,9 +2,13 @@
 # Old and new binary on the Cornell box, alternating, 3 runs each: `meshrad solve` (the
 # embedded box) and `meshrad probe` at the area-uniform points P (px py pz nx ny nz per
 # line, e.g. the first six columns of a bench accuracy reference CSV).
-# Usage: old-vs-new.sh OLD_BINARY NEW_BINARY POINTS
+# OLD and NEW: commits (built by experiments/build-at.sh) or binaries.
+# Usage: bash experiments/decomposition/old-vs-new.sh OLD NEW POINTS   (from the repository root)
 set -u
-old=$1 new=$2 pts=$3 out=$(mktemp -d)
+here=$(cd "$(dirname "$0")" && pwd)
+old=$(bash "$here/../build-at.sh" "$1") || exit 2
+new=$(bash "$here/../build-at.sh" "$2") || exit 2
+pts=$3 out=$(mktemp -d)
 for i in 1 2 3; do
   for b in old new; do
     bin=$new; [ $b = old ] && bin=$old

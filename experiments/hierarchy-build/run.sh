@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The hierarchy build's before/after (issue #13): binaries given as LABEL=PATH arguments
-# (built from their commits), run interleaved, 3 runs each, on the CPU backend:
+# The hierarchy build's before/after (issue #13): LABEL=COMMIT or LABEL=BINARY arguments
+# (a commit is built by experiments/build-at.sh), run interleaved, 3 runs each, on the CPU backend:
 #   cornell   the embedded Cornell box at the defaults, whole run (load to written images);
 #   buddha    scenes/shared/cornell_buddha.toml, hierarchy only (--bounces 0);
 #   sponza    scenes/shared/sponza.toml, hierarchy only (--bounces 0).
@@ -10,15 +10,15 @@
 # the same scene for it. Writes runs.csv beside this
 # script from each run's stats.json, and says which binaries export other nodes than the
 # last one.
-# Usage: bash run.sh b0=/tmp/mr-b0 new=target/release/meshrad [scenes...]
+# Usage: bash experiments/hierarchy-build/run.sh b0=8e58d75 new=target/release/meshrad [scenes...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-root=$(cd "$here/../../.." && pwd)
+root=$(cd "$here/../.." && pwd)
 bins=()
 scenes=()
 for a in "$@"; do
   case "$a" in
-    *=*) bins+=("$a") ;;
+    *=*) bins+=("${a%%=*}=$(bash "$here/../build-at.sh" "${a#*=}")") ;;
     *) scenes+=("$a") ;;
   esac
 done

@@ -3,10 +3,21 @@
 # RUNS runs each (default 3), then the medians: `solve` (writes the images) and `probe` at
 # the points P (px py pz nx ny nz per line). Old and new binary in one run, on the same
 # cores, so the ratios are comparable even on a shared machine.
-# Usage: times.sh SCENE.toml POINTS LABEL=BINARY[:--set KEY=VALUE ...] ...
-#   e.g. times.sh scenes/cornell_box.toml P.txt old=/tmp/meshrad-old new=target/release/meshrad
+# Usage: times.sh SCENE.toml POINTS LABEL=COMMIT|BINARY[:--set KEY=VALUE ...] ...
+#   e.g. times.sh scenes/cornell_box.toml experiments/links/cornell-points.txt old=8e58d75 new=target/release/meshrad
+#   (a commit is built by experiments/build-at.sh)
 set -u
+here=$(cd "$(dirname "$0")" && pwd)
 scene=$1 pts=$2; shift 2
+# LABEL=COMMIT specs made LABEL=BINARY before any run.
+specs=()
+for spec in "$@"; do
+  label=${spec%%=*}; rest=${spec#*=}; what=${rest%%:*}; args=""
+  [ "$rest" != "$what" ] && args=":${rest#*:}"
+  bin=$(bash "$here/../build-at.sh" "$what") || exit 2
+  specs+=("$label=$bin$args")
+done
+set -- "${specs[@]}"
 runs=${RUNS:-3} out=$(mktemp -d)
 for i in $(seq "$runs"); do
   for spec in "$@"; do

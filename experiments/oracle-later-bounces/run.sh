@@ -1,18 +1,23 @@
 #!/usr/bin/env bash
 # A relaxed oracle for the bounces after the first, against run time and accuracy.
-# BIN is meshrad built with relaxed-oracle.patch (beside this file) applied: its oracle's
-# relative allowance is eps_rel (|g| + F |indirect so far|), F from MESHRAD_LATER_F
-# (0: today's oracle, the bounces after the first then refine less the more light a node
-# already has). REF is an unpatched binary of the same commit, timed beside it.
+# VARIANT is the commit with the relaxed oracle, b69bf5a (branch variant/relaxed-oracle:
+# d6982d0 plus the change that was relaxed-oracle.patch): its oracle's relative allowance
+# is eps_rel (|g| + F |indirect so far|), F from MESHRAD_LATER_F (0: today's oracle, the
+# bounces after the first then refine less the more light a node already has). REF is the
+# commit it was made against, d6982d0, timed beside it. Both may also be binaries; a
+# commit is built by experiments/build-at.sh.
 # Per configuration F:EPS_REL: the basis read (final_gather = 0; the later bounces' field
 # is what the basis carries) at the 256 area-uniform points of the cached converged
 # references (the spot-lit box, the area-lit box, Cornell + Buddha), errors by
 # experiments/area-accuracy/errors_at_points.py; then the embedded box's default CPU solve,
 # all configurations and REF interleaved, ROUNDS rounds (default 5).
-# Usage: bash run.sh BIN REF F:EPS... ; writes accuracy.txt and times.csv beside this file.
+# Usage: bash experiments/oracle-later-bounces/run.sh VARIANT REF F:EPS...   (from the
+#   repository root), e.g. b69bf5a d6982d0 0:0.1 0.25:0.1 1:0.1; writes accuracy.txt and
+#   times.csv beside this file.
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-bin=$1 ref_bin=$2; shift 2
+[ $# -ge 3 ] || { sed -n '2,20p' "$0" >&2; exit 2; }
+bin=$(bash "$here/../build-at.sh" "$1") ref_bin=$(bash "$here/../build-at.sh" "$2"); shift 2
 rounds=${ROUNDS:-5}
 a=experiments/area-accuracy
 tmp=$(mktemp -d)

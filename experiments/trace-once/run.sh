@@ -1,19 +1,19 @@
 #!/usr/bin/env bash
-# Issue #13's before/after: binaries given as LABEL=PATH arguments (built from their
-# commits), run interleaved, 3 runs each, on the embedded Cornell box:
+# Issue #13's before/after: LABEL=COMMIT or LABEL=BINARY arguments (a commit is built by
+# experiments/build-at.sh), run interleaved, 3 runs each, on the embedded Cornell box:
 #   cpu      the CPU backend at the defaults (`meshrad solve --backend cpu`);
 #   gpu      lavapipe at the defaults;
 #   table2   lavapipe at the paper's Table 1 settings, approx (bench table2's GPU approx
 #            column's parameters, run cold by `meshrad solve`).
 # Writes runs.csv beside this script from each run's stats.json.
-# Usage: bash run.sh b0=/tmp/mr-b0 b1=/tmp/mr-b1 new=target/release/meshrad [modes...]
+# Usage: bash experiments/trace-once/run.sh b0=8e58d75 b1=COMMIT new=target/release/meshrad [modes...]
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
 bins=()
 modes=()
 for a in "$@"; do
   case "$a" in
-    *=*) bins+=("$a") ;;
+    *=*) bins+=("${a%%=*}=$(bash "$here/../build-at.sh" "${a#*=}")") ;;
     *) modes+=("$a") ;;
   esac
 done

@@ -2,10 +2,11 @@
 # Emitting surfaces (issue #11): what the luminaire costs against the spot on the same
 # box (embedded scenes, CPU backend, defaults, 3 runs each interleaved), and the area-lit
 # box against the converged reference at 256 area-uniform points.
-# Usage: bash run.sh [BINARY]   (default target/release/meshrad); writes beside this file.
+# Usage: bash experiments/emitters/cpu/run.sh [COMMIT|BINARY]   (default target/release/meshrad); writes beside this file.
+#   (from the repository root; a commit is built by experiments/build-at.sh)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-bin=${1:-target/release/meshrad}
+bin=$(bash "$here/../../build-at.sh" "${1:-target/release/meshrad}")
 out=$(mktemp -d)
 csv="$here/costs.csv"
 echo "scene,run,total,hierarchy,direct,bounce1,bounces_all,integrals,rays_gathered,emitter_shadow_rays,direct_mean_rel_se,direct_max_rel_se" >"$csv"

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
 # What the sky adds to Sponza (issue #11): sponza.toml (sun) and sponza_sky.toml (sun + a
 # constant sky), CPU backend, defaults, one run each, in one run of this script.
-# Usage: bash sponza-sky.sh [BINARY]; writes sponza-sky.csv beside it.
+# Usage: bash experiments/emitters/cpu/sponza-sky.sh [COMMIT|BINARY]; writes sponza-sky.csv beside it.
+#   (from the repository root; a commit is built by experiments/build-at.sh)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-bin=${1:-target/release/meshrad}
+bin=$(bash "$here/../../build-at.sh" "${1:-target/release/meshrad}")
 out=$(mktemp -d)
 csv="$here/sponza-sky.csv"
 echo "scene,total,hierarchy,direct,bounce1,bounces_all,integrals,rays_gathered,sky_and_emitter_rays_at_nodes,direct_mean_rel_se,output" >"$csv"

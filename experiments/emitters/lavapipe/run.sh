@@ -2,10 +2,11 @@
 # Emitting surfaces on the GPU backend (issue #11): what the luminaire costs against the
 # spot on the same box (embedded scenes, defaults, 3 runs each interleaved), on whatever
 # device `--backend gpu` takes (lavapipe on the 2-core machine).
-# Usage: bash run.sh [BINARY]   (default target/release/meshrad); writes costs.csv beside this file.
+# Usage: bash experiments/emitters/lavapipe/run.sh [COMMIT|BINARY]   (default target/release/meshrad); writes costs.csv beside this file.
+#   (from the repository root; a commit is built by experiments/build-at.sh)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-bin=${1:-target/release/meshrad}
+bin=$(bash "$here/../../build-at.sh" "${1:-target/release/meshrad}")
 out=$(mktemp -d)
 csv="$here/costs.csv"
 echo "scene,run,total,hierarchy,direct,bounce1,bounces_all,kernel_direct,kernel_reconstruct,integrals,rays_traced,emitter_shadow_rays,direct_mean_rel_se,device" >"$csv"

@@ -2,9 +2,11 @@
 # GPU links (docs/ALGORITHM.md §5.6) on lavapipe: the embedded Cornell box at its defaults,
 # link_memory = 2048 (default) and 0 (trace every bounce), alternating, 3 runs each, in
 # one run of this script. Writes links.csv beside it from each run's stats.json.
+# Usage: bash experiments/links/lavapipe/run.sh [COMMIT|BINARY]   (from the repository root;
+#   default $MESHRAD, else target/release/meshrad; a commit is built by experiments/build-at.sh)
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-bin=${MESHRAD:-target/release/meshrad}
+bin=$(bash "$here/../../build-at.sh" "${1:-${MESHRAD:-target/release/meshrad}}")
 out=$(mktemp -d)
 echo "run,link_memory,bounce1,bounces_after,bounces_all,trace,reconstruct,reduce,rays_traced,rays_gathered,linked,traced" >"$here/links.csv"
 for i in 1 2 3; do
