@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Accuracy of the old (2ebc7c1) and new binaries in one run, at the 256 area-uniform points
+# Accuracy of two commits (OLD, e.g. 2ebc7c1, and NEW) in one run, at the 256 area-uniform points
 # of the cached converged references (experiments/area-accuracy), CPU backend, defaults:
 # `meshrad probe SCENE --points P`, errors by experiments/area-accuracy/errors_at_points.py.
 # Old binaries read the scene files of their commit (OLD_SCENES: cornell_box.toml and

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Accuracy of the old (4db40bf) and new binaries in one run, at the 256 area-uniform points
+# Accuracy of two commits (OLD, NEW) in one run, at the 256 area-uniform points
 # of the cached converged references, CPU backend, defaults: the spot-lit box and Buddha
 # (experiments/area-accuracy) and the area-lit box (experiments/emitters/cpu/accuracy),
 # `meshrad probe SCENE --points P`, errors by experiments/area-accuracy/errors_at_points.py
