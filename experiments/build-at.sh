@@ -14,7 +14,7 @@ if [ -f "$1" ] && [ -x "$1" ]; then
   exit 0
 fi
 root=$(cd "$(dirname "$0")/.." && pwd)
-sha=$(git -C "$root" rev-parse --verify --short "$1^{commit}") || { echo "build-at.sh: $1 is neither a binary nor a commit" >&2; exit 2; }
+sha=$(git -C "$root" rev-parse -q --verify --short "$1^{commit}") || { echo "build-at.sh: $1 is neither a binary nor a commit" >&2; exit 2; }
 cache=${MESHRAD_BUILD_CACHE:-$HOME/.cache/meshrad-build-at}
 bin=$cache/bin/meshrad-$sha
 if [ ! -x "$bin" ]; then
