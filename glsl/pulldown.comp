@@ -31,6 +31,9 @@ void main() {
         Parent p = parents.v[k];
         v += next.v[p.node] * p.weight;
     }
+    // Linear pull-down weights (pulldown_linear) can be negative at an edge: clamp as
+    // transport::cpu::pull_down does (a no-op for Shepard weights and non-negative values).
+    v = max(v, vec4(0.0));
     if (pc.fill == 1u) {
         next.v[c] = v;
     } else {

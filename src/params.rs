@@ -83,6 +83,17 @@ pub struct SolverParams {
     pub final_gather: u32,
     /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
     pub final_gather_pixels: u32,
+    /// Outputs (probes, pixels, a final gather's hits) read the output level by a
+    /// weighted least-squares plane through the node values instead of Shepard's weighted
+    /// mean, which is biased towards the interior where the nodes sit on one side
+    /// (`ALGORITHM.md` §6). Absolute hierarchies only; the original one sums deltas.
+    pub output_linear: bool,
+    /// The pull-down (a node without an integral of its own takes its parents' value,
+    /// and the oracle's prediction) uses the weights of a least-squares plane through
+    /// the parents instead of their Shepard weights, so that a node at a surface's edge
+    /// gets the edge's value rather than the value a fraction of a spacing inward
+    /// (`ALGORITHM.md` §5.5). Absolute hierarchies only.
+    pub pulldown_linear: bool,
     /// Support `h_l = kappa * r_l`.
     pub kappa: f32,
     /// Weight of the normal difference in the distance `δ`.
@@ -132,6 +143,8 @@ impl Default for SolverParams {
             output_level: None,
             final_gather: 1024,
             final_gather_pixels: 0,
+            output_linear: false,
+            pulldown_linear: false,
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,

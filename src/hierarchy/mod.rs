@@ -172,6 +172,65 @@ pub fn in_crevice(scene: &Scene, o: usize, c: &Candidate, d_min: f32, index: u32
     near >= 7
 }
 
+/// Largest `Σ |w|` of a parent set's linear weights: where the parents are nearly
+/// collinear the weights are blended back towards Shepard's until they stay under this.
+const MAX_LINEAR_GAIN: f32 = 3.0;
+
+/// Ridge of the tangent second moments (in support² times the weight sum) of
+/// [`linear_weights`]: a direction the parents do not span gets no slope.
+const LINEAR_RIDGE: f64 = 1e-3;
+
+/// Turns the normalised Shepard weights `w_p` of a child at `x` (normal `n`) into the
+/// weights of a weighted least-squares plane through its parents' values, read at `x`:
+/// `w'_p = w_p (λ_0 + λ_1 u_p + λ_2 v_p)` with `(u_p, v_p)` the parent's offset in the
+/// tangent plane over the support `h`, so that `Σ w'_p = 1` and `Σ w'_p (u_p, v_p) = 0`:
+/// the pull-down reproduces linear fields, where Shepard's weighted mean returns the
+/// value of a point inside the parents' cloud — at a surface's edge, a fraction of a
+/// spacing inward (`ALGORITHM.md` §5.5). Blended back towards `w_p` where the gain
+/// `Σ |w'_p|` would exceed [`MAX_LINEAR_GAIN`].
+fn linear_weights(v: &mut [Parent], nodes: &[Node], x: Vec3, n: Vec3, h: f32) {
+    if v.len() < 3 {
+        return;
+    }
+    let (t, b) = onb(n);
+    let inv_h = 1.0 / h as f64;
+    let uv: Vec<(f64, f64, f64)> = v
+        .iter()
+        .map(|q| {
+            let d = Vec3::from(nodes[q.node as usize].pos) - x;
+            (q.weight as f64, d.dot(t) as f64 * inv_h, d.dot(b) as f64 * inv_h)
+        })
+        .collect();
+    let (mut su, mut sv, mut suu, mut suv, mut svv) = (0.0, 0.0, 0.0, 0.0, 0.0);
+    for &(w, u, vv) in &uv {
+        su += w * u;
+        sv += w * vv;
+        suu += w * u * u;
+        suv += w * u * vv;
+        svv += w * vv * vv;
+    }
+    let (suu, svv) = (suu + LINEAR_RIDGE, svv + LINEAR_RIDGE);
+    // λ = M⁻¹ e_0 for M = [1 su sv; su suu suv; sv suv svv] (the weights sum to 1).
+    let c00 = suu * svv - suv * suv;
+    let c01 = sv * suv - su * svv;
+    let c02 = su * suv - sv * suu;
+    let det = c00 + su * c01 + sv * c02;
+    if !(det > 0.0 && det.is_finite()) {
+        return;
+    }
+    let lin: Vec<f64> = uv.iter().map(|&(w, u, vv)| w * (c00 + c01 * u + c02 * vv) / det).collect();
+    let gain: f64 = lin.iter().map(|w| w.abs()).sum();
+    // Blend w'' = s w' + (1 - s) w; Σ|w''| ≤ s Σ|w'| + (1 - s), so s = (G - 1) / (gain - 1).
+    let s = if gain > MAX_LINEAR_GAIN as f64 {
+        (MAX_LINEAR_GAIN as f64 - 1.0) / (gain - 1.0)
+    } else {
+        1.0
+    };
+    for (q, (&l, &(w, _, _))) in v.iter_mut().zip(lin.iter().zip(&uv)) {
+        q.weight = (s * l + (1.0 - s) * w) as f32;
+    }
+}
+
 /// Where one object's nodes of each level live, and the levels' radii in object space.
 #[derive(Clone, Debug, Default)]
 pub struct ObjectLevels {
@@ -490,7 +549,7 @@ impl Hierarchy {
         };
         let t = Instant::now();
         progress.stage("parent relations");
-        h.build_relations();
+        h.build_relations(p.pulldown_linear && !p.variant.is_delta());
         h.stats.seconds_parents = t.elapsed().as_secs_f64();
         Ok(h)
     }
@@ -554,7 +613,7 @@ impl Hierarchy {
         None
     }
 
-    fn build_relations(&mut self) {
+    fn build_relations(&mut self, linear: bool) {
         let n = self.nodes.len();
         let lists: Vec<Vec<Parent>> = (0..n)
             .into_par_iter()
@@ -578,6 +637,9 @@ impl Hierarchy {
                     for q in &mut v {
                         q.weight /= sum;
                     }
+                    if linear {
+                        linear_weights(&mut v, &self.nodes, p, nrm, self.support(o, l));
+                    }
                 } else if let Some(j) = self.nearest_same_side(o, l, p, nrm) {
                     v.push(Parent {
                         node: j as u32,
@@ -592,6 +654,17 @@ impl Hierarchy {
                 v
             })
             .collect();
+        if std::env::var("MESHRAD_PSTAT").is_ok() {
+            let m = self.levels as usize;
+            let mut hist = vec![[0u32; 8]; m];
+            let mut tot = vec![0u32; m];
+            for (c, v) in lists.iter().enumerate() {
+                let l = self.nodes[c].level as usize;
+                tot[l] += 1;
+                hist[l][v.len().min(7)] += 1;
+            }
+            for l in 0..m { eprintln!("PSTAT level {l}: {} nodes, parents count hist {:?}", tot[l], hist[l]); }
+        }
         let m = self.levels as usize;
         let mut holes = vec![0u32; m];
         let mut orphans = vec![0u32; m];

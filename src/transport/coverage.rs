@@ -129,7 +129,7 @@ pub fn first_bounce(scene: &Scene, h: &Hierarchy, p: &SolverParams) -> Coverage 
                     sender.read(h, ob, xo, no, &direct)
                 });
                 m.sender_exact += read(reconstruct::exact(h, ob, sl, xo, no, &direct).unwrap_or(Vec3::ZERO));
-                m.output += read(reconstruct::output(h, false, ob, ol, xo, no, &direct).max(Vec3::ZERO));
+                m.output += read(reconstruct::output(h, false, p.output_linear, ob, ol, xo, no, &direct).max(Vec3::ZERO));
                 if !has_value(h, p, &ones, ob, xo, no) {
                     m.none += 1;
                     m.lost += light;

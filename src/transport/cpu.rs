@@ -109,6 +109,7 @@ pub fn pull_down(h: &Hierarchy, values: &[Vec4], c: usize) -> Vec4 {
     h.parents_of(c)
         .iter()
         .fold(Vec4::ZERO, |acc, q| acc + values[q.node as usize] * q.weight)
+        .max(Vec4::ZERO)
 }
 
 /// The CPU backend's state.
@@ -293,8 +294,17 @@ impl Backend for CpuBackend<'_> {
             .collect();
         let mut refined = 0;
         let mut flags = vec![false; if activate { self.h.nodes.len() } else { 0 }];
+        let k_sparse = std::env::var("MESHRAD_SPARSE").ok().and_then(|v| v.parse::<usize>().ok()).unwrap_or(0);
+        let floor = self.mean_direct * self.p.eps_abs;
         for (j, (v, r)) in range.zip(out) {
             self.next[j] = v;
+            if activate && k_sparse > 0 && !r && v.xyz().cmpgt(floor).any() {
+                for &c in self.h.children_of(j) {
+                    if self.h.parents_of(c as usize).len() <= k_sparse {
+                        flags[c as usize] = true;
+                    }
+                }
+            }
             if r {
                 refined += 1;
                 if activate {

@@ -143,6 +143,8 @@ pub struct SolveStats {
 #[derive(Clone, Debug)]
 pub struct Solution {
     pub variant: Variant,
+    /// Outputs read the basis with the linear fit (`SolverParams::output_linear`).
+    pub output_linear: bool,
     pub values: NodeValues,
     pub stats: SolveStats,
 }
@@ -208,6 +210,7 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
     let values = backend.values()?;
     stats.kernel_seconds = backend.kernel_times();
     Ok(Solution {
+        output_linear: p.output_linear,
         variant: p.variant,
         values,
         stats,
@@ -274,6 +277,7 @@ impl Solution {
         reconstruct::output(
             h,
             self.variant.is_delta(),
+            self.output_linear,
             o,
             level as usize,
             p_obj,

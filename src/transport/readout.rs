@@ -17,6 +17,8 @@ use crate::params::SolverParams;
 use crate::scene::{Scene, Surface};
 use crate::transport::Solution;
 
+static DIAG: std::sync::LazyLock<std::sync::Mutex<std::fs::File>> = std::sync::LazyLock::new(|| std::sync::Mutex::new(std::fs::File::create(std::env::var("MESHRAD_DIAG").unwrap()).unwrap()));
+
 /// A value and its standard error (zero for the basis read directly).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Read {
@@ -116,7 +118,63 @@ impl<'a> Readout<'a> {
             if s.albedo.max_element() <= 0.0 {
                 continue;
             }
-            let e = self.scene.direct(s.p, s.n) + self.basis(&s);
+            let nest: usize = std::env::var("MESHRAD_NEST").ok().and_then(|v| v.parse().ok()).unwrap_or(0);
+            let e = if nest > 0 {
+                // diagnostic: one-bounce irradiance at the hit by a nested gather
+                let (t2, b2) = onb(s.n);
+                let o2 = self.scene.offset(s.p, s.n);
+                let tab = halton_table(nest as u32);
+                let phi = integral_rotation(self.seed ^ 0x1234, hash2(s.p.x.to_bits(), s.p.y.to_bits() ^ s.p.z.to_bits()));
+                let mut acc = Vec3::ZERO;
+                for &u2 in &tab {
+                    let d2 = cosine_direction(s.n, t2, b2, u2, phi);
+                    if let Some(h2) = self.scene.intersect(&Ray { o: o2, d: d2 }, f32::INFINITY) {
+                        let s2 = self.scene.surface(&h2, d2);
+                        acc += s2.albedo * self.scene.direct(s2.p, s2.n);
+                    }
+                }
+                let b1 = acc / nest as f32;
+                let nested_at = |p: Vec3, nn: Vec3, m: u32| -> Vec3 {
+                    let (t2, b2) = onb(nn);
+                    let o2 = self.scene.offset(p, nn);
+                    let tab = halton_table(m);
+                    let mut acc = Vec3::ZERO;
+                    for &u2 in &tab {
+                        let d2 = cosine_direction(nn, t2, b2, u2, 0.37);
+                        if let Some(h2) = self.scene.intersect(&Ray { o: o2, d: d2 }, f32::INFINITY) {
+                            let s2 = self.scene.surface(&h2, d2);
+                            acc += s2.albedo * self.scene.direct(s2.p, s2.n);
+                        }
+                    }
+                    acc / m as f32
+                };
+                if std::env::var("MESHRAD_DIAG").is_ok() {
+                    use std::io::Write;
+                    let r = self.basis(&s);
+                    let o = s.object as usize;
+                    let l = self.level as usize;
+                    let r5 = self.h.objects[o].radius[l];
+                    let nd = self.h.nearest_same_side(o, l, s.p_obj, s.n_obj).map(|j| (glam::Vec3::from(self.h.nodes[j].pos) - s.p_obj).length() / r5).unwrap_or(-1.0);
+                    let (_, w) = crate::transport::reconstruct::shepard_sums(self.h, o, l, s.p_obj, s.n_obj, &self.sol.values.indirect);
+                    let mut nn = 0; self.h.for_each_weight(o, l, s.p_obj, s.n_obj, |_, _| nn += 1);
+                    let mut best = (usize::MAX, 0.0f32);
+                    self.h.for_each_weight(o, l, s.p_obj, s.n_obj, |j, w| if w > best.1 { best = (j, w) });
+                    let (nodev, nodenest, hitnest, px, pn) = if nn > 0 && nn <= 4 {
+                        let (xj, nj) = crate::transport::cpu::node_world(self.scene, self.h, best.0);
+                        let v = self.sol.values.indirect[best.0].truncate();
+                        let pp = crate::params::SolverParams { seed: self.seed, ..Default::default() };
+                        let g = crate::transport::cpu::gather_integral(self.scene, self.h, &pp, &crate::geom::sampling::halton_table(512), &[], best.0, true);
+                        let _ = (xj, nj);
+                        ((s.albedo * v).dot(Vec3::ONE), (s.albedo * nested_at(xj, nj, 1024)).dot(Vec3::ONE), (s.albedo * g.mean).dot(Vec3::ONE), xj, nj)
+                    } else { (0.0, 0.0, 0.0, Vec3::ZERO, Vec3::ZERO) };
+                    let lin = crate::transport::reconstruct::linear(self.h, o, l, s.p_obj, s.n_obj, &self.sol.values.indirect).unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
+                    let line = format!("{} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {} {}\n", x.x, x.y, x.z, o, (s.albedo*b1).dot(Vec3::ONE), (s.albedo*r).dot(Vec3::ONE), nd, w, nn, s.n.x, s.n.y, s.n.z, (s.albedo*lin).dot(Vec3::ONE), nodev, nodenest, hitnest, s.p.x, s.p.y, s.p.z, (px - s.p).length(), pn.dot(s.n), self.h.objects[o].radius[l]);
+                    DIAG.lock().unwrap().write_all(line.as_bytes()).unwrap();
+                }
+                if std::env::var("MESHRAD_NEST_ONLY").is_ok() { b1 } else { self.scene.direct(s.p, s.n) + b1 }
+            } else {
+                self.scene.direct(s.p, s.n) + self.basis(&s)
+            };
             let c = (s.albedo * e).as_dvec3();
             sum += c;
             sum2 += c * c;
