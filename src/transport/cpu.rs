@@ -424,6 +424,8 @@ impl Backend for CpuBackend<'_> {
         let links = self.links.as_ref().filter(|_| !exact);
         let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
+        let traced = list.iter().filter(|&&j| links.and_then(|l| l.of(j as usize)).is_none()).count();
+        eprintln!("gather level {level}: {} integrals, {traced} traced", list.len());
         let results: Vec<(Gathered, Option<Kept>)> = list
             .par_iter()
             .zip(&record)
@@ -521,6 +523,28 @@ impl Backend for CpuBackend<'_> {
                 }
             }
             let next_range = self.h.level_range(level as usize + 1);
+            // Counters: activated by a refined parent, or only as a sparse child; and of
+            // each, those without links (traced when gathered).
+            let mut by_refined = vec![false; self.h.nodes.len()];
+            for (j, &m) in self.h.level_range(level as usize).zip(&marks) {
+                if m == 1 {
+                    for &c in self.h.children_of(j) {
+                        by_refined[c as usize] = true;
+                    }
+                }
+            }
+            let unlinked = |c: usize| self.links.as_ref().is_none_or(|l| l.of(c).is_none());
+            let (mut r, mut rn, mut s, mut sn) = (0, 0, 0, 0);
+            for c in next_range.clone().filter(|&c| flags[c]) {
+                if by_refined[c] {
+                    r += 1;
+                    rn += usize::from(unlinked(c));
+                } else {
+                    s += 1;
+                    sn += usize::from(unlinked(c));
+                }
+            }
+            eprintln!("activated on level {}: {r} by refined parents ({rn} unlinked), {s} only as sparse children ({sn} unlinked)", level + 1);
             self.active = next_range.filter(|&c| flags[c]).map(|c| c as u32).collect();
         }
         Ok(Refined {
