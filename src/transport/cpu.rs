@@ -467,6 +467,10 @@ impl Backend for CpuBackend<'_> {
         let (coarse, rest) = self.next.split_at_mut(range.start);
         let (h, p, gathered, is_active, mean_direct) =
             (self.h, &self.p, &self.gathered, &self.is_active, self.mean_direct);
+        // Experiment: the relative allowance also counts F times the indirect light the
+        // node has from the bounces before (0 in the first bounce; F = 0: unchanged).
+        let later: f32 = std::env::var("MESHRAD_LATER_F").ok().and_then(|v| v.parse().ok()).unwrap_or(0.0);
+        let indirect = &self.indirect;
         let marks: Vec<u8> = rest[..range.len()]
             .par_iter_mut()
             .enumerate()
@@ -479,7 +483,12 @@ impl Backend for CpuBackend<'_> {
                     (_, active, _) => {
                         let pred = predict(h, p, coarse, j);
                         match (active, delta) {
-                            (true, false) => (g.mean.extend(0.0), oracle(p, g, pred, mean_direct)),
+                            (true, false) => (g.mean.extend(0.0), {
+                                let diff = (g.mean - pred).abs();
+                                let rel = g.mean.abs() + indirect[j].xyz().abs() * later;
+                                let tau = (rel * p.eps_rel).max(mean_direct * p.eps_abs) + g.std_err * p.noise_z;
+                                diff.cmpgt(tau).any()
+                            }),
                             (true, true) => ((g.mean - pred).extend(0.0), oracle(p, g, pred, mean_direct)),
                             _ => (pred.extend(0.0), false),
                         }
