@@ -114,13 +114,26 @@ impl Hierarchy {
     }
 
     /// The parent and child relations; with `dirty`, only the marked children's parent
-    /// lists are computed again (the others keep theirs).
+    /// lists are computed again (the others keep theirs). In steps: the children in
+    /// groups, each group's parent lists, their lengths into the CSR offsets, the lists
+    /// concatenated into place, and the inverse relation.
     pub(super) fn build_relations(&mut self, dirty: Option<&[bool]>) {
-        let n = self.nodes.len();
+        let groups = self.child_groups();
+        let lists = self.group_parent_lists(&groups, dirty);
+        let (lens, holes) = self.parent_counts(&lists);
+        let orphans = self.set_parent_offsets(&lens);
+        let total = self.parent_offset[self.nodes.len()] as usize;
+        self.parents = concat_parents(&lists, total);
+        self.stats.parent_holes_per_level = holes;
+        self.stats.orphans_per_level = orphans;
+        self.build_children();
+    }
+
+    /// Groups of up to GROUP consecutive children of one (object, level): neighbours in
+    /// kd order, so one kd walk over their bounds serves them all. In node order, so
+    /// that their lists concatenate into the CSR (level 0 has none).
+    fn child_groups(&self) -> Vec<std::ops::Range<usize>> {
         let m = self.levels as usize;
-        // Groups of up to GROUP consecutive children of one (object, level): neighbours in
-        // kd order, so one kd walk over their bounds serves them all. In node order, so
-        // that their lists concatenate into the CSR (level 0 has none).
         const GROUP: usize = 16;
         let mut groups = Vec::new();
         for ol in &self.objects {
@@ -131,8 +144,14 @@ impl Hierarchy {
             }
         }
         groups.sort_by_key(|g| g.start);
-        // The groups tile the nodes after level 0 in order; runs of them fill one output.
-        let lists: Vec<GroupParents> = groups
+        groups
+    }
+
+    /// The parent lists of `groups` ([`Self::parents_of_group`]), in parallel: the groups
+    /// tile the nodes after level 0 in order; runs of them fill one output.
+    fn group_parent_lists(&self, groups: &[std::ops::Range<usize>], dirty: Option<&[bool]>) -> Vec<GroupParents> {
+        let m = self.levels as usize;
+        groups
             .par_chunks(64)
             .map(|run| {
                 let mut out = GroupParents {
@@ -150,17 +169,31 @@ impl Hierarchy {
                 }
                 out
             })
-            .collect();
+            .collect()
+    }
+
+    /// Every node's parent count, in node order, and the holes per level, from the runs'
+    /// lists.
+    fn parent_counts(&self, lists: &[GroupParents]) -> (Vec<u32>, Vec<u32>) {
+        let m = self.levels as usize;
         let mut holes = vec![0u32; m];
         // Level 0 has no parents.
         let mut lens = vec![0u32; self.level_start[1] as usize];
-        for g in &lists {
+        for g in lists {
             for (a, b) in holes.iter_mut().zip(&g.holes) {
                 *a += b;
             }
             lens.extend_from_slice(&g.lens);
         }
-        debug_assert_eq!(lens.len(), n);
+        debug_assert_eq!(lens.len(), self.nodes.len());
+        (lens, holes)
+    }
+
+    /// The parents' CSR offsets from every node's parent count `lens`; returns the orphans
+    /// per level (children with no parent).
+    fn set_parent_offsets(&mut self, lens: &[u32]) -> Vec<u32> {
+        let n = self.nodes.len();
+        let m = self.levels as usize;
         let mut orphans = vec![0u32; m];
         self.parent_offset = Vec::with_capacity(n + 1);
         let mut acc = 0u32;
@@ -173,29 +206,12 @@ impl Hierarchy {
             acc += k;
         }
         self.parent_offset.push(acc);
-        // The runs' lists copied into place in parallel.
-        let total = acc as usize;
-        let mut parents: Vec<Parent> = Vec::with_capacity(total);
-        let mut rest = &mut parents.spare_capacity_mut()[..total];
-        let mut parts = Vec::with_capacity(lists.len());
-        for g in &lists {
-            let (part, tail) = std::mem::take(&mut rest).split_at_mut(g.parents.len());
-            parts.push((part, &g.parents));
-            rest = tail;
-        }
-        parts.into_par_iter().for_each(|(dst, src)| {
-            for (d, q) in dst.iter_mut().zip(src) {
-                d.write(*q);
-            }
-        });
-        // SAFETY: the runs' parts tile the first `total` slots (their lengths sum to
-        // `total`, the last offset), and every slot of each part was written above.
-        unsafe { parents.set_len(total) };
-        self.parents = parents;
-        self.stats.parent_holes_per_level = holes;
-        self.stats.orphans_per_level = orphans;
+        orphans
+    }
 
-        // Children: the inverse relation, in ascending order.
+    /// Children: the inverse relation, in ascending order.
+    fn build_children(&mut self) {
+        let n = self.nodes.len();
         let mut counts = vec![0u32; n + 1];
         for q in &self.parents {
             counts[q.node as usize] += 1;
@@ -229,4 +245,26 @@ impl Hierarchy {
     pub fn children_of(&self, p: usize) -> &[u32] {
         &self.children[self.child_offset[p] as usize..self.child_offset[p + 1] as usize]
     }
+}
+
+/// The runs' parent lists concatenated (`total` in all, the last CSR offset), copied into
+/// place in parallel.
+fn concat_parents(lists: &[GroupParents], total: usize) -> Vec<Parent> {
+    let mut parents: Vec<Parent> = Vec::with_capacity(total);
+    let mut rest = &mut parents.spare_capacity_mut()[..total];
+    let mut parts = Vec::with_capacity(lists.len());
+    for g in lists {
+        let (part, tail) = std::mem::take(&mut rest).split_at_mut(g.parents.len());
+        parts.push((part, &g.parents));
+        rest = tail;
+    }
+    parts.into_par_iter().for_each(|(dst, src)| {
+        for (d, q) in dst.iter_mut().zip(src) {
+            d.write(*q);
+        }
+    });
+    // SAFETY: the runs' parts tile the first `total` slots (their lengths sum to
+    // `total`, the last offset), and every slot of each part was written above.
+    unsafe { parents.set_len(total) };
+    parents
 }
