@@ -117,7 +117,7 @@ fn accuracy_quick() {
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("time to 5 %") && text.contains("path tracing"), "{text}");
     assert!(
-        text.contains("rel-RMS (area, converged)") && text.contains("median e/r"),
+        text.contains("rel-RMS (area, converged; all points)") && text.contains("median e/r"),
         "{text}"
     );
     let csv = std::fs::read_to_string(dir.path().join("a/accuracy.csv")).unwrap();
@@ -133,6 +133,23 @@ fn accuracy_quick() {
         let median: f64 = f[col("median_ratio")].parse().unwrap();
         let energy: f64 = f[col("energy_ratio")].parse().unwrap();
         assert!((0.5..1.2).contains(&median) && (0.5..1.2).contains(&energy), "{l}");
+    }
+    // Per stratum: the points lit only indirectly and the lit ones, apart, and the worse
+    // as the headline.
+    assert!(
+        text.contains("headline (worse stratum)") && text.contains("indirect-only"),
+        "{text}"
+    );
+    for l in lines.iter().filter(|l| l.contains(",defaults,")) {
+        let f: Vec<&str> = l.split(',').collect();
+        let num = |c: &str| -> f64 { f[col(c)].parse().unwrap() };
+        let (io, lit) = (num("indirect_only_points"), num("lit_points"));
+        assert!(lit > 0.0 && io + lit <= 32.0, "{l}");
+        assert_eq!(
+            num("headline_rel_rms"),
+            num("lit_rel_rms").max(if io > 0.0 { num("indirect_only_rel_rms") } else { 0.0 }),
+            "{l}"
+        );
     }
     assert!(lines.iter().any(|l| l.ends_with(",true")), "a Pareto front");
     let png = image::open(dir.path().join("a/cornell.png")).unwrap();

@@ -301,7 +301,7 @@ fn gpu_struct_offsets_match_the_host_structs() {
     println!("LAYOUT {checked} members checked against the SPIR-V of every kernel");
 }
 
-/// Every kernel has its wrapper beside it: `glsl/<name>.comp` ↔ `src/gpu/kernels/<name>.rs`.
+/// Every kernel has its wrapper beside it: `glsl/<name>.comp` ↔ `src/device/kernels/<name>.rs`.
 #[test]
 fn every_kernel_has_its_wrapper() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
@@ -310,7 +310,7 @@ fn every_kernel_has_its_wrapper() {
         let p = e.unwrap().path();
         if p.extension().is_some_and(|e| e == "comp") {
             let name = p.file_stem().unwrap().to_string_lossy().into_owned();
-            let rs = root.join("src/gpu/kernels").join(format!("{name}.rs"));
+            let rs = root.join("src/device/kernels").join(format!("{name}.rs"));
             assert!(rs.is_file(), "{} has no wrapper {}", p.display(), rs.display());
             assert!(
                 meshrad::device::kernels::NAMES.contains(&name.as_str()),

@@ -1,7 +1,9 @@
 //! `meshrad bench accuracy`: run time against error. For each scene, points drawn
 //! uniformly by area over every surface that can receive light get a converged Monte Carlo
 //! reference (the unbounded series, Russian roulette): the primary error, with its bias
-//! figures. Camera-visible points against a reference cut at the solver's bounces (what
+//! figures, for all of them and per stratum ([`Strata`]: the points lit only indirectly
+//! and the lit ones; the worse stratum is the headline, which the Pareto front and the
+//! times to reach a target use). Camera-visible points against a reference cut at the solver's bounces (what
 //! this benchmark measured before) are a second view. Then solver configurations are swept — variant × rays per integral, and one
 //! parameter at a time around the scene's defaults (coarsest count, levels, gather
 //! levels, sender level, oracle threshold) — on each backend, and brute-force path
@@ -75,9 +77,62 @@ pub struct Row {
     /// At camera-visible points against the reference cut at the solver's bounces (none
     /// for path tracing).
     pub error_camera: ErrorStats,
+    /// At the area-uniform points, by stratum: lit only indirectly, and lit.
+    pub strata: Strata,
     /// At the scene's defaults: the first bounce's light lost to hits without a value.
     pub coverage: Option<Coverage>,
     pub pareto: bool,
+}
+
+impl Row {
+    /// The figure a row is judged by: the rel-RMS of its worse stratum.
+    pub fn headline(&self) -> f64 {
+        self.strata.headline().rel_rms
+    }
+}
+
+/// The error at the area-uniform points by stratum. Points that get no direct light from
+/// any source (lights, emitting surfaces, the sky) are where radiosity is needed, and lit
+/// points hide their errors behind the exact direct term; so the two are measured apart
+/// and the worse is the headline.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct Strata {
+    /// Points with no direct light: lit only indirectly.
+    pub indirect_only: ErrorStats,
+    /// Points with direct light.
+    pub lit: ErrorStats,
+}
+
+impl Strata {
+    /// The errors of `estimate` (one value per area point) in each stratum of `area`.
+    pub fn of(estimate: &[Vec3], area: &Points) -> Strata {
+        let pick = |lit: bool| -> (Vec<Vec3>, Vec<Estimate>) {
+            estimate
+                .iter()
+                .zip(&area.reference)
+                .zip(&area.lit)
+                .filter(|(_, &l)| l == lit)
+                .map(|((e, r), _)| (*e, *r))
+                .unzip()
+        };
+        let (e, r) = pick(false);
+        let (el, rl) = pick(true);
+        Strata {
+            indirect_only: indirect_error(&e, &r),
+            lit: indirect_error(&el, &rl),
+        }
+    }
+
+    /// The stratum with the larger rel-RMS among those with measured points (the lit one
+    /// when neither has any).
+    pub fn headline(&self) -> &ErrorStats {
+        match (self.indirect_only.points, self.lit.points) {
+            (0, _) => &self.lit,
+            (_, 0) => &self.indirect_only,
+            _ if self.indirect_only.rel_rms >= self.lit.rel_rms => &self.indirect_only,
+            _ => &self.lit,
+        }
+    }
 }
 
 /// The configurations swept around `base`: (label, parameters).
@@ -219,15 +274,16 @@ pub fn decomposition(base: &SolverParams) -> Vec<(String, SolverParams)> {
     ]
 }
 
-/// Marks the Pareto front (no other row of the scene is both faster and more accurate).
+/// Marks the Pareto front (no other row of the scene is both faster and more accurate, by
+/// the headline error: the worse stratum).
 pub fn mark_pareto(rows: &mut [Row]) {
     let snapshot: Vec<(String, f64, f64)> = rows
         .iter()
-        .map(|r| (r.scene.clone(), r.seconds, r.error.rel_rms))
+        .map(|r| (r.scene.clone(), r.seconds, r.headline()))
         .collect();
     for r in rows.iter_mut() {
         r.pareto = !snapshot.iter().any(|(s, t, e)| {
-            *s == r.scene && *t <= r.seconds && *e <= r.error.rel_rms && (*t < r.seconds || *e < r.error.rel_rms)
+            *s == r.scene && *t <= r.seconds && *e <= r.headline() && (*t < r.seconds || *e < r.headline())
         });
     }
 }
@@ -275,6 +331,8 @@ pub fn sweep(
 pub struct Points {
     pub probes: Vec<Probe>,
     pub reference: Vec<Estimate>,
+    /// Whether each point gets direct light from any source ([`Scene::direct`] above 0).
+    pub lit: Vec<bool>,
 }
 
 impl Points {
@@ -303,7 +361,11 @@ impl Points {
         };
         let cache = dir.join(format!("{name}-{kind}-{cut}-reference.csv"));
         let (reference, _) = reference_at(scene, &probes, &ref_opts, &cache, progress)?;
-        Ok(Points { probes, reference })
+        let lit = probes
+            .iter()
+            .map(|q| scene.direct(q.p, q.n).max_element() > 0.0)
+            .collect();
+        Ok(Points { probes, reference, lit })
     }
 }
 
@@ -400,6 +462,7 @@ fn meshrad_rows(
                 rays_traced: m.rays,
                 error: indirect_error(at_area, &area.reference),
                 error_camera: indirect_error(at_camera, &camera.reference),
+                strata: Strata::of(at_area, area),
                 coverage,
                 pareto: false,
             });
@@ -501,6 +564,7 @@ fn pathtrace_rows(name: &str, scene: &Scene, opts: &AccuracyOptions, area: &Poin
             rays_traced: 0,
             error: indirect_error(&values, &area.reference),
             error_camera: ErrorStats::default(),
+            strata: Strata::of(&values, area),
             coverage: None,
             pareto: false,
         });
@@ -513,12 +577,15 @@ pub fn csv(rows: &[Row]) -> String {
     let mut s = String::from(
         "scene,method,backend,variant,label,rays,levels,coarsest,gather_levels,sender_level,eps_rel,seconds,\
          seconds_output,seconds_kernels,seconds_hierarchy,integrals,rays_traced,rel_rms,max_rel,reference_noise,points,\
-         median_ratio,mean_ratio,energy_ratio,off_3x,below_floor,leak,camera_rel_rms,camera_median_ratio,pareto\n",
+         median_ratio,mean_ratio,energy_ratio,off_3x,below_floor,leak,camera_rel_rms,camera_median_ratio,\
+         indirect_only_rel_rms,indirect_only_median_ratio,indirect_only_mean_ratio,indirect_only_energy_ratio,\
+         indirect_only_points,lit_rel_rms,lit_median_ratio,lit_mean_ratio,lit_energy_ratio,lit_points,headline_rel_rms,\
+         pareto\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.4},{:.4},{:.4},{},{},{:.4},{:.6},{:.4},{}",
+            "{},{},{},{},{},{},{},{},{},{},{},{:.6},{:.6},{:.6},{:.6},{},{},{:.6},{:.6},{:.6},{},{:.4},{:.4},{:.4},{},{},{:.4},{:.6},{:.4},{},{}",
             r.scene.replace(',', ";"),
             r.method,
             r.backend.replace(',', ";"),
@@ -549,13 +616,27 @@ pub fn csv(rows: &[Row]) -> String {
             r.error.leak,
             r.error_camera.rel_rms,
             r.error_camera.median_ratio,
+            strata_csv(&r.strata),
             r.pareto
         );
     }
     s
 }
 
-/// The least time any row of a method (and variant) reached each target error with;
+/// The CSV columns of the strata: each stratum's rel-RMS, median, mean and energy ratios
+/// and points, then the headline rel-RMS.
+fn strata_csv(s: &Strata) -> String {
+    let one = |e: &ErrorStats| {
+        format!(
+            "{:.6},{:.4},{:.4},{:.4},{}",
+            e.rel_rms, e.median_ratio, e.mean_ratio, e.energy_ratio, e.points
+        )
+    };
+    format!("{},{},{:.6}", one(&s.indirect_only), one(&s.lit), s.headline().rel_rms)
+}
+
+/// The least time any row of a method (and variant) reached each target error (headline:
+/// the worse stratum) with;
 /// `None` when none did.
 pub fn time_to_reach(rows: &[Row], targets: &[f64]) -> Vec<(String, Vec<Option<f64>>)> {
     let mut groups: Vec<String> = Vec::new();
@@ -572,7 +653,7 @@ pub fn time_to_reach(rows: &[Row], targets: &[f64]) -> Vec<(String, Vec<Option<f
                 .iter()
                 .map(|&t| {
                     rows.iter()
-                        .filter(|r| group(r) == g && r.error.rel_rms <= t)
+                        .filter(|r| group(r) == g && r.headline() <= t)
                         .map(|r| r.seconds)
                         .min_by(f64::total_cmp)
                 })
@@ -617,6 +698,7 @@ mod tests {
             rays_traced: 512,
             error: ErrorStats::default(),
             error_camera: ErrorStats::default(),
+            strata: Strata::default(),
             coverage: None,
             pareto: false,
         };
@@ -625,5 +707,38 @@ mod tests {
         let n = lines[0].split(',').count();
         assert_eq!(lines[1].split(',').count(), n, "{text}");
         assert!(lines[1].contains(",defaults; basis read,"), "{text}");
+    }
+
+    #[test]
+    fn strata_split_the_points_and_the_worse_is_the_headline() {
+        let p = |x: f32| Probe {
+            p: Vec3::splat(x),
+            n: Vec3::Z,
+        };
+        let r = |v: f64| Estimate {
+            mean: glam::DVec3::splat(v),
+            std_err: glam::DVec3::ZERO,
+        };
+        let area = Points {
+            probes: (0..4).map(|i| p(i as f32)).collect(),
+            reference: vec![r(1.0), r(1.0), r(2.0), r(2.0)],
+            lit: vec![true, true, false, false],
+        };
+        // Lit points exact, the indirect-only ones at half their light.
+        let estimate = [Vec3::ONE, Vec3::ONE, Vec3::ONE, Vec3::ONE];
+        let s = Strata::of(&estimate, &area);
+        assert_eq!((s.lit.points, s.indirect_only.points), (2, 2));
+        assert!(s.lit.rel_rms < 1e-12);
+        assert!((s.indirect_only.rel_rms - 0.5).abs() < 1e-9);
+        assert!((s.indirect_only.median_ratio - 0.5).abs() < 1e-9);
+        assert_eq!(s.headline().rel_rms, s.indirect_only.rel_rms);
+        // With no indirect-only point, the lit stratum is the headline.
+        let all_lit = Points {
+            lit: vec![true; 4],
+            ..area
+        };
+        let s = Strata::of(&estimate, &all_lit);
+        assert_eq!(s.indirect_only.points, 0);
+        assert_eq!(s.headline().points, 4);
     }
 }

@@ -38,10 +38,7 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
         path: path.into(),
         message: e.to_string(),
     };
-    let pts: Vec<&Row> = rows
-        .iter()
-        .filter(|r| r.seconds > 0.0 && r.error.rel_rms > 0.0)
-        .collect();
+    let pts: Vec<&Row> = rows.iter().filter(|r| r.seconds > 0.0 && r.headline() > 0.0).collect();
     if pts.is_empty() {
         return Err(Error::Output {
             path: path.into(),
@@ -52,8 +49,8 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
     for r in &pts {
         t0 = t0.min(r.seconds);
         t1 = t1.max(r.seconds);
-        e0 = e0.min(r.error.rel_rms);
-        e1 = e1.max(r.error.rel_rms);
+        e0 = e0.min(r.headline());
+        e1 = e1.max(r.headline());
     }
     let root = BitMapBackend::new(path, (1100, 750)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(Box::new(e)))?;
@@ -67,7 +64,7 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
     chart
         .configure_mesh()
         .x_desc("time to solution (s, log)")
-        .y_desc("relative RMS error of indirect irradiance (log)")
+        .y_desc("rel-RMS of indirect irradiance, worse stratum (log)")
         .x_label_formatter(&|v| format!("{v:.3}"))
         .y_label_formatter(&|v| format!("{:.1} %", v * 100.0))
         .label_style(("sans-serif", 15))
@@ -89,7 +86,7 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
         let mut series: Vec<(f64, f64)> = pts
             .iter()
             .filter(|r| group(r) == *g)
-            .map(|r| (r.seconds, r.error.rel_rms))
+            .map(|r| (r.seconds, r.headline()))
             .collect();
         series.sort_by(|a, b| a.0.total_cmp(&b.0));
         if g == "path tracing" {
@@ -106,7 +103,7 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
     let mut front: Vec<(f64, f64)> = pts
         .iter()
         .filter(|r| r.pareto)
-        .map(|r| (r.seconds, r.error.rel_rms))
+        .map(|r| (r.seconds, r.headline()))
         .collect();
     front.sort_by(|a, b| a.0.total_cmp(&b.0));
     chart
