@@ -228,6 +228,7 @@ impl<'a> CpuBackend<'a> {
     /// The backend within `limits` (the links are planned within `max_memory`).
     pub fn within(scene: &'a Scene, h: &'a Hierarchy, p: &SolverParams, limits: &Limits, progress: &Progress) -> Self {
         let n = h.nodes.len();
+        let link_bytes = link_capacity(scene, p, limits);
         CpuBackend {
             scene,
             h,
@@ -243,8 +244,8 @@ impl<'a> CpuBackend<'a> {
             mean_direct: Vec3::ZERO,
             direct_error: None,
             links: (p.variant == Variant::Approx && p.link_memory > 0)
-                .then(|| Links::new(n, p.rays as usize, link_capacity(scene, p, limits))),
-            link_bytes: link_capacity(scene, p, limits),
+                .then(|| Links::new(n, p.rays as usize, link_bytes)),
+            link_bytes,
             keep_links: false,
             sparse_children: sparse_children(h, if p.variant.is_delta() { 0 } else { p.sparse_parents }),
             progress: progress.clone(),
