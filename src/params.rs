@@ -135,8 +135,8 @@ pub struct SolverParams {
     /// §5.6). Nodes that find it full are traced every time. Also bounded by what the
     /// memory limit leaves. 0: off.
     pub link_memory: u32,
-    /// Shadow rays per point to emitting surfaces (MTL `Ke`) for the direct irradiance at
-    /// nodes, probe points and pixels (`ALGORITHM.md` §2.2; its standard error is in
+    /// Shadow rays per point to emitting surfaces (MTL `Ke`) and the sky for the direct
+    /// irradiance at nodes and pixels (probe points take `max(final_gather, this)`) (`ALGORITHM.md` §2.2; its standard error is in
     /// stats.json). A gathering ray's hit and a reference path's vertex take one, as their
     /// means average many. Read when the scene loads.
     pub emitter_samples: u32,
@@ -153,6 +153,13 @@ pub struct SolverParams {
     pub noise_z: f32,
     /// Approximate reconstruction: accept a leaf when `n · n_j > approx_cos`.
     pub approx_cos: f32,
+    /// Reads of a field at a point (every variant's reconstruction, at hits and at
+    /// outputs) take a node only if the point lies within `plane_offset · h` of the node's
+    /// tangent plane: a node on another sheet facing the same way (the floor above a
+    /// slab's inner face, a step, a parallel wall) is not part of the point's surface
+    /// (`ALGORITHM.md` §5.3). 0: off (the paper's reads). The pull-down weights keep the
+    /// paper's weight.
+    pub plane_offset: f32,
     /// Stop when a bounce's un-shot energy falls below this fraction of the direct energy
     /// (about the fraction of the indirect light that the remaining bounces would add).
     pub stop_threshold: f32,
@@ -209,6 +216,7 @@ impl Default for SolverParams {
             eps_abs: 0.01,
             noise_z: 1.0,
             approx_cos: 0.5,
+            plane_offset: 0.25,
             stop_threshold: 1e-3,
             candidate_factor: 8.0,
             max_candidates: 8_000_000,
@@ -282,6 +290,7 @@ impl SolverParams {
         finite("noise_z", self.noise_z, 0.0, 1e3)?;
         // At 1 no leaf could pass the normal test: every gathered ray would find nothing.
         finite("approx_cos", self.approx_cos, -1.0, 0.99)?;
+        finite("plane_offset", self.plane_offset, 0.0, 4.0)?;
         finite("stop_threshold", self.stop_threshold, 0.0, 1.0)?;
         finite("candidate_factor", self.candidate_factor, 1.0, 1e3)?;
         finite("crevice_distance", self.crevice_distance, 0.0, 100.0)?;

@@ -163,6 +163,7 @@ const WORDS: &[&str] = &[
     "alpha",
     "eps_rel",
     "approx_cos",
+    "plane_offset",
     "max_candidates",
     "reach_paths",
     "reach_bounces",

@@ -308,3 +308,81 @@ fn narrow_faces_get_their_light() {
         "the pull-down is no longer off at these nodes ({off:.3} against {on:.3}): the test lost its case"
     );
 }
+
+/// A low table in the gallery's shade: a plate whose top is 0.12 m above the floor, less
+/// than the finest support (`h` = 0.31 m with 4 levels), so the floor under it and its
+/// top are two sheets facing the same way within one support. The floor under the plate
+/// gets what comes in from its sides; the top sees the roof and the lit floor. A read at
+/// one must not take the other's nodes (`plane_offset`, `ALGORITHM.md` §5.3). The basis
+/// read at area-uniform points on both sheets is compared with the converged reference:
+/// the test fails when the sheets are mixed at the defaults, and checks that without the
+/// plane test they still are (the case is still there).
+#[test]
+fn stacked_sheets_keep_their_own_light() {
+    let dir = common::tmpdir();
+    let path = write_gallery(dir.path());
+    let mut obj = std::fs::read_to_string(dir.path().join("gallery.obj")).unwrap();
+    let mut n = obj.lines().filter(|l| l.starts_with("v ")).count();
+    cuboid(&mut obj, &mut n, [5.0, 0.1, 0.6], [9.0, 0.12, 2.2], "wall");
+    std::fs::write(dir.path().join("gallery.obj"), obj).unwrap();
+    let under = |q: &meshrad::output::probe::Probe| {
+        (5.0..=9.0).contains(&q.p.x) && (0.6..=2.2).contains(&q.p.z) && q.p.y < 0.13 && q.n.y > 0.9
+    };
+    let mut ratios = Vec::new();
+    for plane in ["0.25", "0"] {
+        let (scene, p) = common::load(
+            &path,
+            &[
+                ("levels", "4"),
+                ("sender_level", "3"),
+                ("final_gather", "0"),
+                ("plane_offset", plane),
+            ],
+        );
+        let probes: Vec<_> = area_probes(&scene, 4000, 11)
+            .into_iter()
+            .filter(under)
+            .take(48)
+            .collect();
+        assert!(probes.len() >= 40, "only {} points on the two sheets", probes.len());
+        let pts: Vec<_> = probes.iter().map(|q| (q.p, q.n)).collect();
+        let opts = ReferenceOptions {
+            samples: 4096,
+            max_bounces: 0,
+            ..Default::default()
+        };
+        let refs = reference::indirect_many(&scene, &pts, &opts);
+        let (h, sol) = common::solve_cpu(&scene, &p);
+        let read = Readout::with_rays(&scene, &h, &sol, &p, 0);
+        let est: Vec<_> = probes.iter().map(|q| read.at(q.p, q.n).mean).collect();
+        let e = indirect_error(&est, &refs);
+        println!(
+            "SHEETS plane_offset {plane}: rel-RMS {:.2} %, median e/r {:.3}, energy {:.3}, off 3x {} of {}",
+            100.0 * e.rel_rms,
+            e.median_ratio,
+            e.energy_ratio,
+            e.off_3x,
+            e.points
+        );
+        ratios.push(e);
+    }
+    let (on, off) = (&ratios[0], &ratios[1]);
+    // Measured: 20.0 %, median 0.961 with the plane test (the basis read of 4 levels at
+    // the plate's shadow edges); 40.1 %, median 0.640 without.
+    assert!(
+        on.rel_rms < 0.25,
+        "rel-RMS {:.2} % on the two sheets",
+        100.0 * on.rel_rms
+    );
+    assert!(
+        (0.9..=1.1).contains(&on.median_ratio),
+        "median estimate/reference {:.3} on the two sheets",
+        on.median_ratio
+    );
+    assert!(
+        off.rel_rms > on.rel_rms + 0.1 && off.median_ratio < 0.8,
+        "without the plane test the sheets are no longer mixed ({:.3}, median {:.3}): the test lost its case",
+        off.rel_rms,
+        off.median_ratio
+    );
+}

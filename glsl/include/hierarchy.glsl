@@ -55,6 +55,12 @@ float node_weight(vec3 p, vec3 n, vec3 xj, vec3 nj, float h, float alpha) {
     return q * q * q;
 }
 
+// Whether a point at offset v from a node (normal nj, support h) lies on the node's sheet:
+// within g.plane · h of its tangent plane (Hierarchy::on_sheet; 0: any).
+bool on_sheet(GlobalsRef g, vec3 v, vec3 nj, float h) {
+    return g.plane <= 0.0 || abs(dot(v, nj)) < g.plane * h;
+}
+
 // Σ w_j v_j (xyz) and Σ w_j (w) over level l of object `ob`.
 vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
     uint base = ob.level_start[l];
@@ -81,7 +87,7 @@ vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref v
                 vec3 dx = nd.pos - p;
                 if (dot(dx, dx) < r2) {
                     float w = node_weight(p, n, nd.pos, nd.normal, h, alpha);
-                    if (w > 0.0 && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
+                    if (w > 0.0 && on_sheet(g, p - nd.pos, nd.normal, h) && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
                         acc += vec4(values.v[base + lo].xyz * w, w);
                     }
                 }
@@ -136,7 +142,8 @@ uint first_leaf(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, float cos_m
         }
         Node nd = nodes.v[base + lo];
         vec3 dx = nd.pos - p;
-        if (dot(dx, dx) < r2 && dot(n, nd.normal) > cos_min && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
+        if (dot(dx, dx) < r2 && dot(n, nd.normal) > cos_min && on_sheet(g, p - nd.pos, nd.normal, h)
+            && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
             found = lo;
         }
     }

@@ -136,7 +136,7 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer GlobalsRef 
     float sky_r;
     float sky_g;
     float sky_b;
-    uint pad0;
+    float plane;
 };
 
 // Push constants are declared by each kernel (its own block, `<Name>Push`, mirrored by

@@ -93,7 +93,8 @@ pub struct Globals {
     pub sky_r: f32,
     pub sky_g: f32,
     pub sky_b: f32,
-    pub pad0: u32,
+    /// `Hierarchy::plane`: reads take nodes within `plane · h` of their tangent plane.
+    pub plane: f32,
 }
 
 /// A ray as the kernels store it (32 bytes).

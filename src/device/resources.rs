@@ -423,6 +423,6 @@ fn globals(
         sky_r: sky_l.x,
         sky_g: sky_l.y,
         sky_b: sky_l.z,
-        pad0: 0,
+        plane: h.plane,
     }
 }

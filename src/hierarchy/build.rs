@@ -284,6 +284,7 @@ impl Hierarchy {
             levels: p.levels,
             kappa: p.kappa,
             alpha: p.alpha,
+            plane: p.plane_offset,
             nodes,
             splits,
             clips: Vec::new(),

@@ -111,6 +111,9 @@ pub struct Hierarchy {
     pub levels: u32,
     pub kappa: f32,
     pub alpha: f32,
+    /// Reads take a node only within `plane · h` of its tangent plane (0: any;
+    /// `SolverParams::plane_offset`).
+    pub plane: f32,
     pub nodes: Vec<Node>,
     pub splits: Vec<KdSplit>,
     /// Per node, the free distance of its support in 8 tangent sectors (`weight::clip_ok`).
@@ -156,19 +159,40 @@ impl Hierarchy {
         (&self.nodes[s..e], &self.splits[s..e], s)
     }
 
-    /// Calls `f(global index, w)` for every node of (o, l) with `w_j(p) > 0`.
+    /// Calls `f(global index, w)` for every node of (o, l) with `w_j(p) > 0` whose clip
+    /// admits `p`: the paper's basis, which the parents and pull-down weights use (§3.7).
     #[inline]
-    pub fn for_each_weight(&self, o: usize, l: usize, p: Vec3, n: Vec3, mut f: impl FnMut(usize, f32)) {
+    pub fn for_each_weight(&self, o: usize, l: usize, p: Vec3, n: Vec3, f: impl FnMut(usize, f32)) {
+        self.weights(o, l, p, n, false, f)
+    }
+
+    /// [`Hierarchy::for_each_weight`] for a read of a field at `p`: only the nodes of its
+    /// own sheet ([`Hierarchy::on_sheet`], `ALGORITHM.md` §5.3).
+    #[inline]
+    pub fn for_each_read_weight(&self, o: usize, l: usize, p: Vec3, n: Vec3, f: impl FnMut(usize, f32)) {
+        self.weights(o, l, p, n, true, f)
+    }
+
+    #[inline]
+    fn weights(&self, o: usize, l: usize, p: Vec3, n: Vec3, read: bool, mut f: impl FnMut(usize, f32)) {
         let (nodes, splits, base) = self.level(o, l);
         let h = self.support(o, l);
         kdtree::range(nodes, splits, p, h, |i| {
             let nd = &nodes[i];
             let (x, nj) = (Vec3::from(nd.pos), Vec3::from(nd.normal));
             let w = node_weight(p, n, x, nj, h, self.alpha);
-            if w > 0.0 && clip_ok(&self.clips[base + i], p - x, nj, h) {
+            if w > 0.0 && (!read || self.on_sheet(p - x, nj, h)) && clip_ok(&self.clips[base + i], p - x, nj, h) {
                 f(base + i, w);
             }
         });
+    }
+
+    /// Whether a point at offset `v` from a node (normal `nj`, support `h`) lies on the
+    /// node's sheet: within `plane · h` of its tangent plane (`ALGORITHM.md` §5.3). GLSL
+    /// twin: `on_sheet` in `glsl/include/hierarchy.glsl`.
+    #[inline]
+    pub fn on_sheet(&self, v: Vec3, nj: Vec3, h: f32) -> bool {
+        self.plane <= 0.0 || v.dot(nj).abs() < self.plane * h
     }
 
     /// The nearest node of (o, l) on the same side as `n` (n · n_j > 0) whose clip planes

@@ -100,10 +100,11 @@ pub fn evaluate(
     params: &SolverParams,
 ) -> Vec<ProbeValue> {
     let read = Readout::new(scene, h, sol, params);
+    let samples = params.final_gather.max(params.emitter_samples) as usize;
     probes
         .par_iter()
         .map(|q| {
-            let (direct, direct_se) = scene.direct_with_error(q.p, q.n);
+            let (direct, direct_se) = scene.direct_with_samples(q.p, q.n, samples);
             ProbeValue {
                 direct,
                 direct_se,

@@ -363,6 +363,7 @@ impl Builder {
             &placed,
             |t| emission[self.tris[t as usize].material as usize],
             params.emitter_samples,
+            params.final_gather,
         );
         self.report.emitting_triangles = emitters.list.len();
         let ranges: Vec<_> = self

@@ -43,6 +43,18 @@ impl Scene {
         (e, se)
     }
 
+    /// [`Scene::direct_with_error`] with `samples` emitter and sky samples (at most
+    /// [`emitter::Emitters::most`]): a probe's direct light, which takes as many as its
+    /// final gather (`ALGORITHM.md` §2.2).
+    pub fn direct_with_samples(&self, x: Vec3, n: Vec3, samples: usize) -> (Vec3, Vec3) {
+        let (mut e, mut se) = (Vec3::ZERO, Vec3::ZERO);
+        self.direct_sources(x, n, samples, emitter::point_seed(x, n), |_, v, s| {
+            e += v;
+            se += s;
+        });
+        (e, se)
+    }
+
     /// [`Scene::direct`] with one emitter sample: the direct light at a gathering ray's
     /// hit or a reference path's vertex, whose means average many such estimates.
     pub fn direct_one(&self, x: Vec3, n: Vec3) -> Vec3 {
@@ -110,7 +122,7 @@ impl Scene {
         if !self.emitters.any() && self.sky.is_none() {
             return;
         }
-        let count = samples.min(self.emitters.samples());
+        let count = samples.min(self.emitters.most());
         if self.emitters.any() {
             let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
             self.emitters

@@ -32,8 +32,11 @@ pub struct Emitters {
     prob: Vec<f64>,
     /// Running sums of `prob` (the last is 1).
     cdf: Vec<f64>,
-    /// The base point set: `samples` 3-D Halton points (bases 2, 3, 5).
+    /// The base point set: 3-D Halton points (bases 2, 3, 5), as many as the most samples
+    /// any point takes (a probe's; [`Emitters::most`]).
     points: Vec<[f64; 3]>,
+    /// Samples per node and pixel (`emitter_samples`), the first of `points`.
+    per_point: usize,
     /// Each object's placement (as of the last [`Emitters::place`]).
     to_world: Vec<Affine>,
 }
@@ -120,6 +123,7 @@ impl Emitters {
         objects: &[(Affine, std::ops::Range<u32>)],
         radiance: impl Fn(u32) -> Vec3,
         samples: u32,
+        probe_samples: u32,
     ) -> Emitters {
         let mut list = Vec::new();
         for (o, (_, range)) in objects.iter().enumerate() {
@@ -136,7 +140,8 @@ impl Emitters {
         }
         let mut e = Emitters {
             list,
-            points: (1..=samples as u64)
+            per_point: samples as usize,
+            points: (1..=samples.max(probe_samples) as u64)
                 .map(|i| [radical_inverse(i, 2), radical_inverse(i, 3), radical_inverse(i, 5)])
                 .collect(),
             ..Default::default()
@@ -192,8 +197,14 @@ impl Emitters {
         Some((a + (b - a) * b1 + (c - a) * b2, n))
     }
 
-    /// Samples per receiving point.
+    /// Samples per node and pixel (`emitter_samples`): the GPU kernels' count.
     pub fn samples(&self) -> usize {
+        self.per_point
+    }
+
+    /// The most samples a point can take: a probe's (`max(final_gather,
+    /// emitter_samples)` when the scene was loaded).
+    pub fn most(&self) -> usize {
         self.points.len()
     }
 

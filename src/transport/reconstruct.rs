@@ -14,7 +14,7 @@ use crate::params::Variant;
 pub fn shepard_sums(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, values: &[Vec4]) -> (Vec3, f32) {
     let mut sum = Vec3::ZERO;
     let mut wsum = 0.0;
-    h.for_each_weight(o, l, p, n, |j, w| {
+    h.for_each_read_weight(o, l, p, n, |j, w| {
         sum += values[j].xyz() * w;
         wsum += w;
     });
@@ -57,7 +57,8 @@ pub fn approx_node(h: &Hierarchy, o: usize, l: usize, p: Vec3, n: Vec3, cos_min:
         let ok = |i: usize| {
             let nd = &nodes[i];
             let nj = Vec3::from(nd.normal);
-            n.dot(nj) > cos_min && clip_ok(&h.clips[base + i], p - Vec3::from(nd.pos), nj, hk)
+            let v = p - Vec3::from(nd.pos);
+            n.dot(nj) > cos_min && h.on_sheet(v, nj, hk) && clip_ok(&h.clips[base + i], v, nj, hk)
         };
         kdtree::first_leaf(nodes, splits, p, hk, ok).map(|i| base + i)
     })
