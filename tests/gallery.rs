@@ -82,6 +82,17 @@ fn write_gallery(dir: &Path) -> PathBuf {
     p
 }
 
+/// The converged reference (the whole series, 4096 paths) at `probes`.
+fn converged(scene: &meshrad::scene::Scene, probes: &[meshrad::output::probe::Probe]) -> Vec<reference::Estimate> {
+    let pts: Vec<_> = probes.iter().map(|q| (q.p, q.n)).collect();
+    let opts = ReferenceOptions {
+        samples: 4096,
+        max_bounces: 0,
+        ..Default::default()
+    };
+    reference::indirect_many(scene, &pts, &opts)
+}
+
 /// The errors of one solve at its defaults against the converged reference, read with
 /// each of `final_gathers` (rays; 0: the basis at the point).
 fn errors(final_gathers: &[u32]) -> (SolverParams, Vec<meshrad::metrics::ErrorStats>) {
@@ -89,13 +100,7 @@ fn errors(final_gathers: &[u32]) -> (SolverParams, Vec<meshrad::metrics::ErrorSt
     let path = write_gallery(dir.path());
     let (scene, p) = common::load(&path, &[]);
     let probes = area_probes(&scene, 96, 7);
-    let pts: Vec<_> = probes.iter().map(|q| (q.p, q.n)).collect();
-    let opts = ReferenceOptions {
-        samples: 4096,
-        max_bounces: 0,
-        ..Default::default()
-    };
-    let refs = reference::indirect_many(&scene, &pts, &opts);
+    let refs = converged(&scene, &probes);
     let (h, sol) = common::solve_cpu(&scene, &p);
     let stats = final_gathers
         .iter()
@@ -345,13 +350,7 @@ fn stacked_sheets_keep_their_own_light() {
             .take(48)
             .collect();
         assert!(probes.len() >= 40, "only {} points on the two sheets", probes.len());
-        let pts: Vec<_> = probes.iter().map(|q| (q.p, q.n)).collect();
-        let opts = ReferenceOptions {
-            samples: 4096,
-            max_bounces: 0,
-            ..Default::default()
-        };
-        let refs = reference::indirect_many(&scene, &pts, &opts);
+        let refs = converged(&scene, &probes);
         let (h, sol) = common::solve_cpu(&scene, &p);
         let read = Readout::with_rays(&scene, &h, &sol, &p, 0);
         let est: Vec<_> = probes.iter().map(|q| read.at(q.p, q.n).mean).collect();
