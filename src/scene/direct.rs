@@ -35,12 +35,7 @@ impl Scene {
 
     /// [`Scene::direct`] and its standard error (the emitters' sampling; lights are exact).
     pub fn direct_with_error(&self, x: Vec3, n: Vec3) -> (Vec3, Vec3) {
-        let (mut e, mut se) = (Vec3::ZERO, Vec3::ZERO);
-        self.direct_sources(x, n, self.emitters.samples(), emitter::point_seed(x, n), |_, v, s| {
-            e += v;
-            se += s;
-        });
-        (e, se)
+        self.direct_with_samples(x, n, self.emitters.samples())
     }
 
     /// [`Scene::direct_with_error`] with `samples` emitter and sky samples (at most
