@@ -85,6 +85,10 @@ impl Reach {
 }
 
 /// Every parameter of the solver. Unknown keys are an error.
+/// The most that `free_path` multiplies the coarsest level's node count by (a level and a
+/// half): the node memory stays within 8× what `coarsest` plans for.
+pub const FREE_PATH_MAX_RAISE: f64 = 8.0;
+
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SolverParams {
@@ -92,6 +96,13 @@ pub struct SolverParams {
     pub levels: u32,
     /// Target node count `N_0` of the coarsest level (sets `r_0 = sqrt(0.7 A / N_0)`).
     pub coarsest: u32,
+    /// The coarsest level's Poisson radius is at most `free_path` times the scene's mean
+    /// free path (the mean distance a cosine-weighted ray from a surface travels to the
+    /// next surface), so a node never spans more than the light it gathers varies over:
+    /// `coarsest` is raised where the scene is finer than its count (Sponza's galleries),
+    /// at most [`FREE_PATH_MAX_RAISE`]-fold (`ALGORITHM.md` §3.2). 0: off (the paper's
+    /// fixed count).
+    pub free_path: f32,
     /// Rays per gathering integral `N`.
     pub rays: u32,
     /// The most bounces `K` of indirect light; the loop stops earlier once the un-shot
@@ -196,6 +207,7 @@ impl Default for SolverParams {
         SolverParams {
             levels: 6,
             coarsest: 226,
+            free_path: 1.0,
             rays: 512,
             bounces: 100,
             variant: Variant::Approx,
@@ -291,6 +303,7 @@ impl SolverParams {
         // At 1 no leaf could pass the normal test: every gathered ray would find nothing.
         finite("approx_cos", self.approx_cos, -1.0, 0.99)?;
         finite("plane_offset", self.plane_offset, 0.0, 4.0)?;
+        finite("free_path", self.free_path, 0.0, 1e3)?;
         finite("stop_threshold", self.stop_threshold, 0.0, 1.0)?;
         finite("candidate_factor", self.candidate_factor, 1.0, 1e3)?;
         finite("crevice_distance", self.crevice_distance, 0.0, 100.0)?;

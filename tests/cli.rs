@@ -65,6 +65,71 @@ fn default_run_solves_the_embedded_cornell_box() {
     assert!(stats["solve"]["stopped_early"].is_string());
     assert!(stats["solve"]["unconverged"].is_null());
     assert!(stats["solve"]["rays_traced"].as_u64().unwrap() > 1_000_000);
+    // The image: the default samples per pixel, box filter, the automatic exposure that
+    // puts the 99th percentile of lit pixels at white (the EXRs stay linear).
+    assert_eq!(stats["image"]["spp"], meshrad::scene::camera::DEFAULT_SPP);
+    assert_eq!(stats["image"]["filter"], "box");
+    assert_eq!(stats["image"]["exposure"]["mode"], "auto");
+    let ev = stats["image"]["exposure"]["ev"].as_f64().unwrap();
+    assert!((0.5..3.0).contains(&ev), "auto exposure {ev}");
+}
+
+#[test]
+fn spp_and_exposure_from_the_command_line() {
+    let dir = common::tmpdir();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let small = [
+        "--backend",
+        "cpu",
+        "--bounces",
+        "2",
+        "--rays",
+        "32",
+        "--set",
+        "levels=3",
+        "--set",
+        "sender_level=2",
+        "-q",
+    ];
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec!["solve", scene.to_str().unwrap(), "--out", out.to_str().unwrap()];
+        args.extend_from_slice(&small);
+        args.extend_from_slice(extra);
+        let o = meshrad(&args, dir.path());
+        (o, out)
+    };
+    let (o, a) = run("a", &["--spp", "1", "--exposure", "0"]);
+    ok(&o);
+    let (o, b) = run("b", &["--spp", "1", "--exposure", "-1"]);
+    ok(&o);
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(b.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["image"]["spp"], 1);
+    assert_eq!(stats["image"]["exposure"]["mode"], "fixed");
+    assert_eq!(stats["image"]["exposure"]["ev"], -1.0);
+    // One stop down halves the PNG's linear values; the EXRs are the same bytes.
+    assert_eq!(
+        std::fs::read(a.join("total.exr")).unwrap(),
+        std::fs::read(b.join("total.exr")).unwrap()
+    );
+    let mean = |d: &Path| {
+        let png = image::open(d.join("total.png")).unwrap().to_rgb8();
+        png.pixels().map(|p| (p[1] as f64 / 255.0).powf(2.2)).sum::<f64>() / (png.width() * png.height()) as f64
+    };
+    let ratio = mean(&b) / mean(&a);
+    assert!((ratio - 0.5).abs() < 0.02, "−1 EV gave {ratio} of the 0 EV brightness");
+    for (flag, value, says) in [
+        ("--spp", "0", "1..=4096"),
+        ("--spp", "5000", "1..=4096"),
+        ("--exposure", "bright", "neither `auto` nor a number"),
+        ("--exposure", "1e9", "outside"),
+    ] {
+        let (o, _) = run("c", &[flag, value]);
+        assert!(!o.status.success(), "{flag} {value} was taken");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(err.contains(says) && err.contains(value), "{flag} {value}: {err}");
+    }
 }
 
 #[test]

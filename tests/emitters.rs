@@ -468,3 +468,55 @@ fn bad_envmaps_are_named() {
     let e = load(&constant);
     assert!(e.contains("sky.scale") && e.contains("envmap"), "{e}");
 }
+
+/// Antialiasing: the camera looks straight up at the square emitter, whose edge crosses
+/// the image at pixel 26.25 (and 5.75). One sample per pixel takes the centre (all or
+/// nothing); 16 stratified box samples give each edge pixel its covered quarter to within
+/// one stratum; the Gaussian filter (σ = 0.5) gives Φ(−0.5) of the pixel beyond the edge.
+#[test]
+fn pixel_samples_cover_an_emitter_edge_as_its_area() {
+    use meshrad::scene::camera::Filter;
+    let dir = common::tmpdir();
+    let (mut scene, _) = common::load(&small_emitter(dir.path()), &[]);
+    // Distance d below the emitter (half side 0.5) puts its edge at x = 0.5 / d on the
+    // image plane (tan_half = 1, 32 pixels): pixel 16 (x + 1) = 26.25.
+    let d = 0.5 / 0.640625;
+    let cam = &mut scene.camera;
+    cam.position = Vec3::new(0.0, 1.0 - d, 0.0);
+    cam.forward = Vec3::Y;
+    cam.right = Vec3::X;
+    cam.up = Vec3::Z;
+    cam.tan_half = 1.0;
+    cam.width = 32;
+    cam.height = 32;
+    let none = vec![false; scene.sources()];
+    let row = |scene: &meshrad::Scene| {
+        let img = meshrad::output::image::render_with(
+            scene,
+            &scene.camera,
+            &none,
+            &meshrad::progress::Progress::hidden(),
+            |_, _| Vec3::ZERO,
+        );
+        (0..32)
+            .map(|x| img.direct[16 * 32 + x].x as f64 / LE)
+            .collect::<Vec<_>>()
+    };
+    scene.camera.spp = 1;
+    let one = row(&scene);
+    assert_eq!((one[5], one[6], one[25], one[26]), (0.0, 1.0, 1.0, 0.0), "{one:?}");
+    scene.camera.spp = 16;
+    let boxed = row(&scene);
+    for x in [5, 26] {
+        assert!((boxed[x] - 0.25).abs() <= 1.0 / 16.0 + 1e-6, "pixel {x}: {}", boxed[x]);
+    }
+    assert_eq!((boxed[4], boxed[16], boxed[27]), (0.0, 1.0, 0.0));
+    let sum: f64 = boxed.iter().sum();
+    assert!((sum - 20.5).abs() <= 2.0 / 16.0 + 1e-6, "row sum {sum}");
+    scene.camera.spp = 1024;
+    scene.camera.filter = Filter::Gaussian;
+    let gauss = row(&scene);
+    // Φ(−0.5) = 0.3085 of the pixel centred 0.25 past the edge, Φ(0.5) of the one before.
+    assert!((gauss[26] - 0.3085).abs() < 0.01, "{}", gauss[26]);
+    assert!((gauss[25] - 0.9332).abs() < 0.01, "{}", gauss[25]);
+}

@@ -185,7 +185,7 @@ fn outputs(scene: &Scene, h: &Hierarchy, sol: &crate::Solution, p: &SolverParams
     let t = Instant::now();
     let img = image::render(scene, h, sol, p, &Progress::hidden());
     let mut files = crate::output::Outputs::default();
-    image::encode_all(Path::new("."), &img, &mut files)?;
+    image::encode_all(Path::new("."), &img, image::Exposure::default(), &mut files)?;
     Ok(t.elapsed().as_secs_f64())
 }
 

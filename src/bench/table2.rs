@@ -119,7 +119,7 @@ pub fn end_to_end(
     let run = crate::solve(&scene, &params, &mut engine.fresh(), &hidden)?;
     let img = image::render(&scene, &run.hierarchy, &run.solution, &params, &hidden);
     let mut files = output::Outputs::default();
-    image::encode_all(dir, &img, &mut files)?;
+    image::encode_all(dir, &img, image::Exposure::default(), &mut files)?;
     files.commit()?;
     Ok(Cold {
         seconds: t.elapsed().as_secs_f64(),

@@ -11,7 +11,7 @@ use glam::Vec3;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use super::{load_scene, report_load, ImageSummary, PhaseSeconds, RunStats, SceneSummary, SolverArgs};
+use super::{load_scene, report_load, ImageArgs, ImageSummary, PhaseSeconds, RunStats, SceneSummary, SolverArgs};
 use crate::editor::{self, Changed, Edit, Editor, Frame, FrameSeconds};
 use crate::output::{self, image, probe};
 use crate::progress::Progress;
@@ -31,6 +31,8 @@ pub struct AnimateArgs {
     /// Also evaluate these points (`px py pz nx ny nz` per line) per frame: `probe.csv`.
     #[arg(long, value_name = "P.txt")]
     points: Option<PathBuf>,
+    #[command(flatten)]
+    image: ImageArgs,
     #[command(flatten)]
     solver: SolverArgs,
 }
@@ -87,13 +89,14 @@ fn frame_outputs(
     k: usize,
     dir: &Path,
     points: Option<&[probe::Probe]>,
+    exposure: image::Exposure,
     progress: &Progress,
 ) -> Result<(output::Outputs, FrameTimes)> {
     let t = Instant::now();
     let (scene, h, params, sol) = (&ed.scene, &ed.hierarchy, &ed.params, &f.solution);
     let img = image::render(scene, h, sol, params, progress);
     let mut files = output::Outputs::default();
-    image::encode_all(dir, &img, &mut files)?;
+    let exposure = image::encode_all(dir, &img, exposure, &mut files)?;
     if let Some(points) = points {
         let values = probe::evaluate(scene, h, sol, points, params);
         files.add(dir.join("probe.csv"), probe::csv(points, &values).into_bytes());
@@ -113,12 +116,7 @@ fn frame_outputs(
             hierarchy: &h.stats,
             solve: &sol.stats,
             gpu: f.gpu.as_ref(),
-            image: ImageSummary {
-                width: img.width,
-                height: img.height,
-                output_level: params.output_level(),
-                negative_indirect_pixels_clamped: img.clamped,
-            },
+            image: ImageSummary::of(&img, scene, params, exposure),
             seconds: PhaseSeconds {
                 load: 0.0,
                 hierarchy: f.seconds.update,
@@ -135,7 +133,9 @@ fn frame_outputs(
 
 pub fn animate(a: AnimateArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
-    let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
+    let (mut scene, params) = load_scene(Some(&a.scene), &a.solver)?;
+    a.image.apply(&mut scene)?;
+    let exposure = a.image.exposure.unwrap_or_default();
     report_load(&scene, a.solver.quiet);
     let params = editor::editing_params(&params, "animate")?;
     let text = crate::limits::read_text(&a.frames, crate::limits::MAX_TEXT_BYTES)?;
@@ -177,7 +177,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         ed.apply(f, &format!("{}: frame {k}", a.frames.display()))?;
         let frame = ed.solve(&hidden)?;
         let dir = frame_dir(&a.out, k);
-        let (files, times) = frame_outputs(&ed, &frame, k, &dir, points.as_deref(), &hidden)?;
+        let (files, times) = frame_outputs(&ed, &frame, k, &dir, points.as_deref(), exposure, &hidden)?;
         files.commit()?;
         let total = t.elapsed().as_secs_f64();
         if !a.solver.quiet {
@@ -344,7 +344,7 @@ impl Session {
                 output::check_outputs(&planned, &self.inputs)?;
                 let solved = self.ensure_solved()?;
                 let f = self.last.as_ref().expect("solved");
-                let (files, _) = frame_outputs(&self.ed, f, 0, &dir, None, &self.progress)?;
+                let (files, _) = frame_outputs(&self.ed, f, 0, &dir, None, image::Exposure::default(), &self.progress)?;
                 let paths: Vec<String> = files.paths().map(|p| p.display().to_string()).collect();
                 files.commit()?;
                 Ok(json!({"ok": true, "solved": solved, "files": paths}))

@@ -118,7 +118,38 @@ struct SolveArgs {
     #[arg(long, value_name = "FILE.ply")]
     export_nodes: Option<PathBuf>,
     #[command(flatten)]
+    image: ImageArgs,
+    #[command(flatten)]
     solver: SolverArgs,
+}
+
+/// How images are sampled and drawn.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ImageArgs {
+    /// Samples per pixel (default: `[camera] spp`, else 4), stratified over the pixel
+    /// filter (`[camera] filter`: box or gaussian).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// PNG exposure in stops, or `auto` (the default: the total image's 99th percentile
+    /// of lit pixels at white). The EXRs stay linear; stats.json records what was applied.
+    #[arg(long, value_name = "EV|auto", allow_hyphen_values = true)]
+    pub exposure: Option<image::Exposure>,
+}
+
+impl ImageArgs {
+    /// Applies `--spp` to the scene's camera.
+    pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(spp) = self.spp {
+            if spp == 0 || spp > crate::scene::camera::MAX_SPP {
+                anyhow::bail!(
+                    "--spp {spp}: must be within 1..={} samples per pixel",
+                    crate::scene::camera::MAX_SPP
+                );
+            }
+            scene.camera.spp = spp;
+        }
+        Ok(())
+    }
 }
 
 #[derive(Args, Debug)]
@@ -143,6 +174,7 @@ pub fn main() -> ExitCode {
             scene: None,
             out: PathBuf::from("out"),
             export_nodes: None,
+            image: ImageArgs::default(),
             solver: SolverArgs {
                 backend: BackendChoice::Auto,
                 variant: None,
@@ -290,10 +322,29 @@ pub struct RunStats<'a> {
 pub struct ImageSummary {
     pub width: u32,
     pub height: u32,
+    /// Samples per pixel and the pixel filter.
+    pub spp: u32,
+    pub filter: crate::scene::camera::Filter,
+    /// The PNGs' exposure (the EXRs are linear).
+    pub exposure: image::AppliedExposure,
     pub output_level: u32,
     /// Pixels whose indirect irradiance came out negative (delta-hierarchy ringing) and
     /// were clamped to zero.
     pub negative_indirect_pixels_clamped: usize,
+}
+
+impl ImageSummary {
+    pub fn of(img: &image::Images, scene: &Scene, params: &SolverParams, exposure: image::AppliedExposure) -> Self {
+        ImageSummary {
+            width: img.width,
+            height: img.height,
+            spp: scene.camera.spp,
+            filter: scene.camera.filter,
+            exposure,
+            output_level: params.output_level(),
+            negative_indirect_pixels_clamped: img.clamped,
+        }
+    }
 }
 
 /// The scene's size.
@@ -457,7 +508,8 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
     let t_all = Instant::now();
     let t = Instant::now();
-    let (scene, params) = load_scene(a.scene.as_deref(), &a.solver)?;
+    let (mut scene, params) = load_scene(a.scene.as_deref(), &a.solver)?;
+    a.image.apply(&mut scene)?;
     report_load(&scene, a.solver.quiet);
     let load = t.elapsed().as_secs_f64();
     // Where the outputs go is settled before the solve: a bad --out fails in a moment,
@@ -477,7 +529,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     progress.stage("images");
     let img = image::render(&scene, h, sol, &params, &progress);
     let mut files = output::Outputs::default();
-    image::encode_all(&a.out, &img, &mut files)?;
+    let exposure = image::encode_all(&a.out, &img, a.image.exposure.unwrap_or_default(), &mut files)?;
     if let Some(p) = &a.export_nodes {
         files.add(p, ply::encode(p, &scene, h, sol)?);
     }
@@ -501,12 +553,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         hierarchy: &h.stats,
         solve: &sol.stats,
         gpu: run.gpu.as_ref(),
-        image: ImageSummary {
-            width: img.width,
-            height: img.height,
-            output_level: params.output_level(),
-            negative_indirect_pixels_clamped: img.clamped,
-        },
+        image: ImageSummary::of(&img, &scene, &params, exposure),
         seconds,
     };
     let stats_path = a.out.join("stats.json");

@@ -246,6 +246,8 @@ impl Hierarchy {
         let density = Density::plan(scene, p, &sides)?;
         stats.reachable_area = density.areas.iter().sum();
         stats.radius_per_level = density.radius.iter().map(|&r| r as f32).collect();
+        stats.free_path = density.free_path;
+        stats.coarsest_nodes = density.coarsest;
 
         let t = Instant::now();
         progress.stage("candidate samples");

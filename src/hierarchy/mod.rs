@@ -83,6 +83,11 @@ pub struct HierarchyStats {
     /// Children with no same-side node on the parent level at all.
     pub orphans_per_level: Vec<u32>,
     pub reachable_area: f64,
+    /// The scene's mean free path (world units; `solver.free_path`), when measured.
+    pub free_path: Option<f64>,
+    /// The coarsest level's target node count: `coarsest`, or more where the mean free
+    /// path raised it.
+    pub coarsest_nodes: f64,
     /// Candidates found in a crevice (a gap narrower than the finest level's radius, e.g.
     /// under an object resting on the floor), of those tested: on the host the crevice
     /// test runs on the candidates that no node of an earlier chunk of the dart throwing

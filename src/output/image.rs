@@ -12,7 +12,7 @@ use crate::hierarchy::Hierarchy;
 use crate::output::Outputs;
 use crate::params::SolverParams;
 use crate::progress::Progress;
-use crate::scene::{Scene, Surface};
+use crate::scene::{Camera, Scene, Surface};
 use crate::transport::readout::Readout;
 use crate::transport::Solution;
 
@@ -35,17 +35,21 @@ impl Images {
     }
 }
 
-/// Renders the camera view: per pixel, the primary hit's direct irradiance from the
-/// lights `lights` (exact, shadow rays) and the indirect irradiance `indirect(surface,
-/// pixel index)`, as radiance `ρ E / π`. Negative indirect values are clamped and counted.
+/// Renders the view of `cam`: per pixel, [`Camera::spp`] samples spread over
+/// the pixel filter's footprint ([`Camera::sample_position`]), each with
+/// its own primary hit, its direct irradiance from the lights `lights` (exact, shadow
+/// rays), its emitted radiance and its indirect irradiance `indirect(surface, sample)`
+/// (`sample` = pixel index × spp + k, a stream for estimators that need one), as radiance
+/// `ρ E / π`; the pixel is their mean. Negative indirect pixels are clamped and counted.
 pub fn render_with(
     scene: &Scene,
+    cam: &Camera,
     lights: &[bool],
     progress: &Progress,
-    indirect: impl Fn(&Surface, usize) -> Vec3 + Sync,
+    indirect: impl Fn(&Surface, u64) -> Vec3 + Sync,
 ) -> Images {
-    let cam = &scene.camera;
     let (w, hgt) = (cam.width as usize, cam.height as usize);
+    let spp = cam.spp.max(1);
     let bar = progress.bar(hgt as u64, "image");
     let rows: Vec<(Vec<Vec3>, Vec<Vec3>)> = (0..hgt)
         .into_par_iter()
@@ -53,20 +57,25 @@ pub fn render_with(
             let mut d = Vec::with_capacity(w);
             let mut i = Vec::with_capacity(w);
             for x in 0..w {
-                let ray = cam.ray(x as f32 + 0.5, y as f32 + 0.5);
-                let (dv, iv) = match scene.intersect(&ray, f32::INFINITY) {
-                    Some(hit) => {
-                        let s = scene.surface(&hit, ray.d);
-                        let k = s.albedo / std::f32::consts::PI;
-                        // An emitter shows its own radiance (`Scene::emitted`).
-                        let d = k * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s);
-                        (d, k * indirect(&s, y * w + x))
+                let (mut ds, mut is) = (Vec3::ZERO, Vec3::ZERO);
+                for k in 0..spp {
+                    let (px, py) = cam.sample_position(x as u32, y as u32, k);
+                    let ray = cam.ray(px, py);
+                    match scene.intersect(&ray, f32::INFINITY) {
+                        Some(hit) => {
+                            let s = scene.surface(&hit, ray.d);
+                            let kd = s.albedo / std::f32::consts::PI;
+                            // An emitter shows its own radiance (`Scene::emitted`).
+                            ds += kd * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s);
+                            is += kd * indirect(&s, (y * w + x) as u64 * spp as u64 + k as u64);
+                        }
+                        // A ray that leaves the scene sees the sky (`[sky]`; black without).
+                        None => ds += scene.sky_radiance(ray.d),
                     }
-                    // A ray that leaves the scene sees the sky (`[sky]`; black without).
-                    None => (scene.sky_radiance(ray.d), Vec3::ZERO),
-                };
-                d.push(dv);
-                i.push(iv);
+                }
+                let n = 1.0 / spp as f32;
+                d.push(ds * n);
+                i.push(is * n);
             }
             bar.inc(1);
             (d, i)
@@ -98,11 +107,86 @@ pub fn render_with(
 pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParams, progress: &Progress) -> Images {
     let lights = vec![true; scene.sources()];
     let read = Readout::for_pixels(scene, h, sol, params);
-    render_with(scene, &lights, progress, |s, _| read.on_surface(s))
+    render_with(scene, &scene.camera, &lights, progress, |s, _| read.on_surface(s))
 }
 
-/// Encodes `stem.exr` (linear float RGB) and `stem.png` (gamma 2.2, clamped) for `dir`.
-pub fn encode_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3], out: &mut Outputs) -> Result<()> {
+/// How bright the PNGs are drawn: `2^ev` times the linear radiance before gamma 2.2. The
+/// EXRs stay linear and untouched.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Exposure {
+    /// [`auto_ev`] of the total image.
+    Auto,
+    /// A fixed exposure in stops (EV).
+    Ev(f32),
+}
+
+impl Default for Exposure {
+    fn default() -> Self {
+        Exposure::Auto
+    }
+}
+
+impl std::str::FromStr for Exposure {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Self, String> {
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(Exposure::Auto);
+        }
+        match s.parse::<f32>() {
+            Ok(v) if v.is_finite() && v.abs() <= MAX_EV => Ok(Exposure::Ev(v)),
+            Ok(v) => Err(format!("{v} stops is outside ±{MAX_EV}")),
+            Err(_) => Err(format!("`{s}` is neither `auto` nor a number of stops (EV)")),
+        }
+    }
+}
+
+/// Most stops of exposure either way.
+pub const MAX_EV: f32 = 40.0;
+
+/// The exposure applied to the PNGs, as stats.json reports it.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct AppliedExposure {
+    /// `"auto"` or `"fixed"`.
+    pub mode: &'static str,
+    /// Stops: the PNGs show `2^ev` times the linear radiance.
+    pub ev: f32,
+}
+
+impl Exposure {
+    /// The stops this exposure applies to `img`.
+    pub fn resolve(self, img: &Images) -> AppliedExposure {
+        match self {
+            Exposure::Ev(ev) => AppliedExposure { mode: "fixed", ev },
+            Exposure::Auto => AppliedExposure {
+                mode: "auto",
+                ev: auto_ev(&img.total()),
+            },
+        }
+    }
+}
+
+/// The automatic exposure: the stops that put the 99th percentile of the lit pixels'
+/// luminance at white, so at most one lit pixel in a hundred clips, whatever the lights'
+/// units; rounded to 1/100 stop. A black image gets 0. (On the Cornell box this is
+/// +1.56, the same as the photographic key 0.18 at the log-average luminance.)
+pub fn auto_ev(px: &[Vec3]) -> f32 {
+    let mut lum: Vec<f32> = px
+        .iter()
+        .map(|p| 0.2126 * p.x + 0.7152 * p.y + 0.0722 * p.z)
+        .filter(|&y| y > 0.0 && y.is_finite())
+        .collect();
+    if lum.is_empty() {
+        return 0.0;
+    }
+    let k = ((lum.len() - 1) as f64 * 0.99).round() as usize;
+    let (_, p99, _) = lum.select_nth_unstable_by(k, f32::total_cmp);
+    let ev = (1.0 / *p99).log2().clamp(-MAX_EV, MAX_EV);
+    (ev * 100.0).round() / 100.0
+}
+
+/// Encodes `stem.exr` (linear float RGB) and `stem.png` (`2^ev` times the radiance,
+/// gamma 2.2, clamped) for `dir`.
+pub fn encode_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3], ev: f32, out: &mut Outputs) -> Result<()> {
     let exr_path = dir.join(format!("{stem}.exr"));
     // Compressed sequentially: the parallel writer stores blocks in completion order,
     // so the same image would not give the same bytes twice.
@@ -122,7 +206,8 @@ pub fn encode_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3], out: &mu
         })?;
     out.add(exr_path, exr_bytes.into_inner());
     let png_path = dir.join(format!("{stem}.png"));
-    let enc = |v: f32| (v.max(0.0).powf(1.0 / 2.2).min(1.0) * 255.0 + 0.5) as u8;
+    let scale = 2f32.powf(ev);
+    let enc = |v: f32| ((v * scale).max(0.0).powf(1.0 / 2.2).min(1.0) * 255.0 + 0.5) as u8;
     let buf: Vec<u8> = px.iter().flat_map(|p| [enc(p.x), enc(p.y), enc(p.z)]).collect();
     let mut png = Vec::new();
     use image::ImageEncoder as _;
@@ -136,11 +221,15 @@ pub fn encode_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3], out: &mu
     Ok(())
 }
 
-/// Encodes direct, indirect and total images for `dir`.
-pub fn encode_all(dir: &Path, img: &Images, out: &mut Outputs) -> Result<()> {
-    encode_pair(dir, "direct", img.width, img.height, &img.direct, out)?;
-    encode_pair(dir, "indirect", img.width, img.height, &img.indirect, out)?;
-    encode_pair(dir, "total", img.width, img.height, &img.total(), out)
+/// Encodes direct, indirect and total images for `dir`, the PNGs all at one exposure
+/// (resolved on the total image), which it returns.
+pub fn encode_all(dir: &Path, img: &Images, exposure: Exposure, out: &mut Outputs) -> Result<AppliedExposure> {
+    let applied = exposure.resolve(img);
+    let ev = applied.ev;
+    encode_pair(dir, "direct", img.width, img.height, &img.direct, ev, out)?;
+    encode_pair(dir, "indirect", img.width, img.height, &img.indirect, ev, out)?;
+    encode_pair(dir, "total", img.width, img.height, &img.total(), ev, out)?;
+    Ok(applied)
 }
 
 /// The files [`encode_all`] writes in `dir`.
@@ -152,8 +241,29 @@ pub fn file_names(dir: &Path) -> Vec<std::path::PathBuf> {
 }
 
 /// Writes direct, indirect and total images (all or none).
-pub fn write_all(dir: &Path, img: &Images) -> Result<()> {
+pub fn write_all(dir: &Path, img: &Images, exposure: Exposure) -> Result<AppliedExposure> {
     let mut out = Outputs::default();
-    encode_all(dir, img, &mut out)?;
-    out.commit()
+    let applied = encode_all(dir, img, exposure, &mut out)?;
+    out.commit()?;
+    Ok(applied)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn auto_exposure_puts_the_99th_percentile_at_white() {
+        // 1000 lit pixels of luminance 0.001 … 1.0 and some black ones: the 99th
+        // percentile is 0.99 (+0.01 EV); ten times the radiance is 3.32 stops less.
+        let mut px: Vec<Vec3> = (1..=1000).map(|k| Vec3::splat(k as f32 / 1000.0)).collect();
+        px.extend(std::iter::repeat(Vec3::ZERO).take(500));
+        assert_eq!(auto_ev(&px), 0.01);
+        let brighter: Vec<Vec3> = px.iter().map(|p| *p * 10.0).collect();
+        assert_eq!(auto_ev(&brighter), -3.31);
+        assert_eq!(auto_ev(&[Vec3::ZERO; 4]), 0.0);
+        assert_eq!("auto".parse::<Exposure>(), Ok(Exposure::Auto));
+        assert_eq!("-1.5".parse::<Exposure>(), Ok(Exposure::Ev(-1.5)));
+        assert!("nan".parse::<Exposure>().is_err());
+    }
 }

@@ -145,6 +145,8 @@ impl Builder {
                 fov: c.fov,
                 width: w,
                 height: h,
+                spp: None,
+                filter: None,
             });
         }
     }

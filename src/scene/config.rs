@@ -91,6 +91,11 @@ pub struct CameraEntry {
     pub width: u32,
     #[serde(default = "default_size")]
     pub height: u32,
+    /// Samples per pixel, stratified over the pixel filter's footprint (default
+    /// [`crate::scene::camera::DEFAULT_SPP`]).
+    pub spp: Option<u32>,
+    /// The pixel filter: `"box"` (default, as reference renderers) or `"gaussian"`.
+    pub filter: Option<crate::scene::camera::Filter>,
 }
 
 fn default_up() -> [f32; 3] {
