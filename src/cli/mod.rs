@@ -126,7 +126,7 @@ struct SolveArgs {
 /// How images are sampled and drawn.
 #[derive(Args, Debug, Clone, Default)]
 pub struct ImageArgs {
-    /// Samples per pixel (default: `[camera] spp`, else 4), stratified over the pixel
+    /// Samples per pixel (default: `[camera] spp`, else 16), stratified over the pixel
     /// filter (`[camera] filter`: box or gaussian).
     #[arg(long)]
     pub spp: Option<u32>,

@@ -112,18 +112,13 @@ pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParam
 
 /// How bright the PNGs are drawn: `2^ev` times the linear radiance before gamma 2.2. The
 /// EXRs stay linear and untouched.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub enum Exposure {
     /// [`auto_ev`] of the total image.
+    #[default]
     Auto,
     /// A fixed exposure in stops (EV).
     Ev(f32),
-}
-
-impl Default for Exposure {
-    fn default() -> Self {
-        Exposure::Auto
-    }
 }
 
 impl std::str::FromStr for Exposure {
@@ -257,7 +252,7 @@ mod tests {
         // 1000 lit pixels of luminance 0.001 … 1.0 and some black ones: the 99th
         // percentile is 0.99 (+0.01 EV); ten times the radiance is 3.32 stops less.
         let mut px: Vec<Vec3> = (1..=1000).map(|k| Vec3::splat(k as f32 / 1000.0)).collect();
-        px.extend(std::iter::repeat(Vec3::ZERO).take(500));
+        px.extend(std::iter::repeat_n(Vec3::ZERO, 500));
         assert_eq!(auto_ev(&px), 0.01);
         let brighter: Vec<Vec3> = px.iter().map(|p| *p * 10.0).collect();
         assert_eq!(auto_ev(&brighter), -3.31);

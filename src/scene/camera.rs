@@ -10,7 +10,7 @@ use crate::geom::Ray;
 
 /// Samples per pixel when `[camera] spp` is not given: the knee of the Cornell box's
 /// image error-vs-time front (docs/BENCHMARKS.md, "Images").
-pub const DEFAULT_SPP: u32 = 4;
+pub const DEFAULT_SPP: u32 = 16;
 /// Most samples per pixel.
 pub const MAX_SPP: u32 = 4096;
 
