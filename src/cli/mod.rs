@@ -140,13 +140,7 @@ impl ImageArgs {
     /// Applies `--spp` to the scene's camera.
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
         if let Some(spp) = self.spp {
-            if spp == 0 || spp > crate::scene::camera::MAX_SPP {
-                anyhow::bail!(
-                    "--spp {spp}: must be within 1..={} samples per pixel",
-                    crate::scene::camera::MAX_SPP
-                );
-            }
-            scene.camera.spp = spp;
+            scene.camera.spp = crate::scene::camera::check_spp(spp).map_err(|m| anyhow::anyhow!("--spp {m}"))?;
         }
         Ok(())
     }

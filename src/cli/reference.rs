@@ -136,6 +136,6 @@ fn render(scene: &Scene, opts: &ReferenceOptions, progress: &Progress) -> image:
 
 /// Sub-pixel positions of a reference pixel of `samples` paths: one per path up to 256
 /// (stratified edges then converge faster than the paths' noise).
-pub fn positions(samples: u32) -> u32 {
+fn positions(samples: u32) -> u32 {
     samples.clamp(1, 256)
 }

@@ -148,13 +148,13 @@ pub struct AppliedExposure {
 }
 
 impl Exposure {
-    /// The stops this exposure applies to `img`.
-    pub fn resolve(self, img: &Images) -> AppliedExposure {
+    /// The stops this exposure applies to an image whose total radiance is `total`.
+    pub fn resolve(self, total: &[Vec3]) -> AppliedExposure {
         match self {
             Exposure::Ev(ev) => AppliedExposure { mode: "fixed", ev },
             Exposure::Auto => AppliedExposure {
                 mode: "auto",
-                ev: auto_ev(&img.total()),
+                ev: auto_ev(total),
             },
         }
     }
@@ -219,11 +219,12 @@ pub fn encode_pair(dir: &Path, stem: &str, w: u32, h: u32, px: &[Vec3], ev: f32,
 /// Encodes direct, indirect and total images for `dir`, the PNGs all at one exposure
 /// (resolved on the total image), which it returns.
 pub fn encode_all(dir: &Path, img: &Images, exposure: Exposure, out: &mut Outputs) -> Result<AppliedExposure> {
-    let applied = exposure.resolve(img);
+    let total = img.total();
+    let applied = exposure.resolve(&total);
     let ev = applied.ev;
     encode_pair(dir, "direct", img.width, img.height, &img.direct, ev, out)?;
     encode_pair(dir, "indirect", img.width, img.height, &img.indirect, ev, out)?;
-    encode_pair(dir, "total", img.width, img.height, &img.total(), ev, out)?;
+    encode_pair(dir, "total", img.width, img.height, &total, ev, out)?;
     Ok(applied)
 }
 

@@ -63,10 +63,7 @@ impl Camera {
                 return Err(bad(key, &format!("{v} is outside 1..=16384 pixels")));
             }
         }
-        let spp = e.spp.unwrap_or(DEFAULT_SPP);
-        if spp == 0 || spp > MAX_SPP {
-            return Err(bad("spp", &format!("{spp} is outside 1..={MAX_SPP} samples per pixel")));
-        }
+        let spp = check_spp(e.spp.unwrap_or(DEFAULT_SPP)).map_err(|m| bad("spp", &m))?;
         let d = Vec3::from(e.target).as_dvec3() - Vec3::from(e.position).as_dvec3();
         let Some(forward) = crate::geom::unit_vector(d) else {
             return Err(bad("target", "must differ from position"));
@@ -123,7 +120,10 @@ impl Camera {
             w - w.floor()
         };
         let u = shift((k as f32 + 0.5) / self.spp as f32, h);
-        let v = shift(radical_inverse2(k), h.rotate_left(16) ^ 0x9e37_79b9);
+        let v = shift(
+            crate::geom::sampling::radical_inverse(k, 2) as f32,
+            h.rotate_left(16) ^ 0x9e37_79b9,
+        );
         match self.filter {
             Filter::Box => (x as f32 + u, y as f32 + v),
             Filter::Gaussian => {
@@ -151,9 +151,12 @@ impl Camera {
     }
 }
 
-/// The base-2 radical inverse of `k` (van der Corput), in [0, 1).
-fn radical_inverse2(k: u32) -> f32 {
-    (k.reverse_bits() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+/// `spp` if it is a valid count of samples per pixel (1..=[`MAX_SPP`]), else why not.
+pub fn check_spp(spp: u32) -> std::result::Result<u32, String> {
+    if spp == 0 || spp > MAX_SPP {
+        return Err(format!("{spp} is outside 1..={MAX_SPP} samples per pixel"));
+    }
+    Ok(spp)
 }
 
 /// A well-mixed 32-bit hash of a pixel (lowbias32).
