@@ -131,6 +131,7 @@ impl Engine {
         let elsewhere: Option<LevelsElsewhere> = if on_device { Some(&device) } else { None };
         let mut h = Hierarchy::build_unarranged_with(scene, params, progress, elsewhere)?;
         progress.stage("uploading to the GPU");
+        let params = &h.gather_params(params);
         *resident = Some(Box::new(GpuResident::arranged(ctx, scene, &mut h, params, progress)?));
         Ok(h)
     }
@@ -176,6 +177,7 @@ impl Engine {
         reuse_links: bool,
         progress: &Progress,
     ) -> Result<(Solution, Option<GpuReport>)> {
+        let params = &h.gather_params(params);
         match &mut self.place {
             Place::Gpu { ctx, resident } => {
                 let r = match resident.take() {
@@ -218,6 +220,7 @@ impl Engine {
         warmups: u32,
         progress: &Progress,
     ) -> Result<(Solution, Option<GpuReport>)> {
+        let params = &h.gather_params(params);
         let hidden = Progress::hidden();
         match &self.place {
             Place::Gpu { ctx, .. } => {

@@ -143,6 +143,34 @@ impl Limits {
     }
 }
 
+/// Opens a named pipe without waiting for a writer (a plain `open` blocks until one
+/// comes, forever if none does), then makes its reads blocking again: a writer that has
+/// not written yet is waited for, and with none the read ends at once, empty.
+#[cfg(unix)]
+fn open_pipe(path: &Path) -> Result<std::fs::File> {
+    use std::os::fd::AsRawFd;
+    use std::os::unix::fs::OpenOptionsExt;
+    let f = std::fs::OpenOptions::new()
+        .read(true)
+        .custom_flags(libc::O_NONBLOCK)
+        .open(path)
+        .map_err(|e| Error::io(path, e))?;
+    // SAFETY: fcntl on a descriptor this function owns, with integer arguments only.
+    let ok = unsafe {
+        let fl = libc::fcntl(f.as_raw_fd(), libc::F_GETFL);
+        fl >= 0 && libc::fcntl(f.as_raw_fd(), libc::F_SETFL, fl & !libc::O_NONBLOCK) >= 0
+    };
+    if !ok {
+        return Err(Error::io(path, std::io::Error::last_os_error()));
+    }
+    Ok(f)
+}
+
+#[cfg(not(unix))]
+fn open_pipe(path: &Path) -> Result<std::fs::File> {
+    std::fs::File::open(path).map_err(|e| Error::io(path, e))
+}
+
 /// Reads a whole input file, at most `limit` bytes. Directories, devices and sockets are
 /// refused (reading `/dev/zero` would never end); a pipe is read up to the limit.
 pub fn read_file(path: &Path, limit: u64) -> Result<Vec<u8>> {
@@ -189,13 +217,26 @@ pub fn read_file(path: &Path, limit: u64) -> Result<Vec<u8>> {
     if meta.len() > limit {
         return Err(too_big(meta.len()));
     }
-    let f = std::fs::File::open(path).map_err(|e| Error::io(path, e))?;
+    let f = if is_pipe {
+        open_pipe(path)?
+    } else {
+        std::fs::File::open(path).map_err(|e| Error::io(path, e))?
+    };
     let mut buf = Vec::with_capacity(meta.len() as usize);
     f.take(limit + 1)
         .read_to_end(&mut buf)
         .map_err(|e| Error::io(path, e))?;
     if buf.len() as u64 > limit {
         return Err(too_big(buf.len() as u64));
+    }
+    if is_pipe && buf.is_empty() {
+        return Err(Error::io(
+            path,
+            std::io::Error::new(
+                std::io::ErrorKind::UnexpectedEof,
+                "is a pipe that gave nothing to read (no program writes to it)",
+            ),
+        ));
     }
     Ok(buf)
 }

@@ -100,10 +100,12 @@ pub struct SolverParams {
     /// free path (the mean distance a cosine-weighted ray from a surface travels to the
     /// next surface), so a node never spans more than the light it gathers varies over:
     /// `coarsest` is raised where the scene is finer than its count (Sponza's galleries),
-    /// at most [`FREE_PATH_MAX_RAISE`]-fold (`ALGORITHM.md` §3.2). 0: off (the paper's
-    /// fixed count).
+    /// at most [`FREE_PATH_MAX_RAISE`]-fold (`ALGORITHM.md` §3.2), and the rays per
+    /// integral are lowered as much (`rays`). 0: off (the paper's fixed count).
     pub free_path: f32,
-    /// Rays per gathering integral `N`.
+    /// Rays per gathering integral `N` at the asked density; where `free_path` raised the
+    /// node count k-fold, the solve takes `rays / k`, rounded up to a multiple of 32 and
+    /// at least 32 (`Hierarchy::gather_params`, stats.json `solve.rays_per_integral`).
     pub rays: u32,
     /// The most bounces `K` of indirect light; the loop stops earlier once the un-shot
     /// energy falls below `stop_threshold`.
@@ -130,6 +132,15 @@ pub struct SolverParams {
     pub final_gather: u32,
     /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
     pub final_gather_pixels: u32,
+    /// Without `final_gather_pixels`: rays of a final gather at the pixel samples whose
+    /// basis read is doubted (`doubt_nodes`, `doubt_spread`; `ALGORITHM.md` §6); 0: the
+    /// basis everywhere.
+    pub doubt_gather: u32,
+    /// A pixel sample's basis read is doubted where fewer nodes than this support it.
+    pub doubt_nodes: u32,
+    /// ... or (absolute hierarchies) where its nodes' values spread by more than this
+    /// fraction of the read.
+    pub doubt_spread: f32,
     /// A node with at most this many parents is gathered whenever a parent carries light
     /// (a value above the oracle's absolute floor), instead of taking its parents' weighted
     /// mean: its surface is narrower than the parent level resolves (a ledge, a strip, the
@@ -151,6 +162,12 @@ pub struct SolverParams {
     /// stats.json). A gathering ray's hit and a reference path's vertex take one, as their
     /// means average many. Read when the scene loads.
     pub emitter_samples: u32,
+    /// The highest albedo a material may have: an albedo above it but at most 1 (a
+    /// glTF's default white, MTL `Kd 1 1 1`; for a textured material the texture's mean
+    /// times the factor) is lowered to it, with one note naming the materials; above 1
+    /// is an error. At 1 a closed scene's series would not converge. Read when the
+    /// scene loads.
+    pub max_albedo: f32,
     /// Support `h_l = kappa * r_l`.
     pub kappa: f32,
     /// Weight of the normal difference in the distance `δ`.
@@ -218,10 +235,14 @@ impl Default for SolverParams {
             output_level: None,
             final_gather: 1024,
             final_gather_pixels: 0,
+            doubt_gather: 0,
+            doubt_nodes: 4,
+            doubt_spread: 1.0,
             sparse_parents: 3,
             sparse_bounces: 10_000,
             link_memory: 2048,
             emitter_samples: 64,
+            max_albedo: 0.98,
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,
@@ -285,6 +306,9 @@ impl SolverParams {
         range("output_level", self.output_level(), 0, self.levels - 1)?;
         range("final_gather", self.final_gather, 0, 1 << 16)?;
         range("final_gather_pixels", self.final_gather_pixels, 0, 1 << 16)?;
+        range("doubt_gather", self.doubt_gather, 0, 1 << 16)?;
+        range("doubt_nodes", self.doubt_nodes, 0, 1 << 10)?;
+        finite("doubt_spread", self.doubt_spread, 0.0, 1e6)?;
         range("sparse_parents", self.sparse_parents, 0, 1 << 16)?;
         range("sparse_bounces", self.sparse_bounces, 0, 10_000)?;
         range("link_memory", self.link_memory, 0, 1 << 24)?;
@@ -307,6 +331,7 @@ impl SolverParams {
         finite("stop_threshold", self.stop_threshold, 0.0, 1.0)?;
         finite("candidate_factor", self.candidate_factor, 1.0, 1e3)?;
         finite("crevice_distance", self.crevice_distance, 0.0, 100.0)?;
+        finite("max_albedo", self.max_albedo, 0.0, 0.999)?;
         Ok(())
     }
 }

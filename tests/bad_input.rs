@@ -30,14 +30,22 @@ fn default_toml() -> String {
     format!("[[object]]\nmesh = \"m.obj\"\n\n{LIGHT}\n{FAST}")
 }
 
-/// Runs `meshrad solve` on the case; returns (success, stderr).
+/// Runs `meshrad solve -q` on the case; returns (success, stderr).
 fn run(c: &Case) -> (bool, String) {
+    run_with(c, true)
+}
+
+/// Runs `meshrad solve` on the case, quiet or with its notes; returns (success, stderr).
+fn run_with(c: &Case, quiet: bool) -> (bool, String) {
     let dir = common::tmpdir();
     let d = dir.path();
     std::fs::write(d.join("s.toml"), &c.toml).unwrap();
     std::fs::write(d.join("m.obj"), c.obj).unwrap();
     std::fs::write(d.join("m.mtl"), c.mtl).unwrap();
-    let mut args = vec!["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"];
+    let mut args = vec!["solve", "s.toml", "--out", "o", "--backend", "cpu"];
+    if quiet {
+        args.push("-q");
+    }
     args.extend_from_slice(c.extra);
     let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
         .args(&args)
@@ -180,13 +188,61 @@ fn degenerate_triangles_are_dropped_and_counted() {
 }
 
 #[test]
-fn albedo_of_one_or_more_is_an_error() {
+fn albedo_above_one_is_an_error_and_one_is_lowered_with_a_note() {
     let mut c = scene(&default_toml());
-    c.mtl = "newmtl a\nKd 1.0 0.5 0.5\n";
-    fails_with(c, &["m.obj", "material `a`", "albedo"]);
+    c.mtl = "newmtl a\nKd 1.01 0.5 0.5\n";
+    fails_with(c, &["m.obj", "material `a`", "albedo above 1"]);
     let mut c = scene(&default_toml());
     c.mtl = "newmtl a\nKd 0.5 -0.5 0.5\n";
     fails_with(c, &["material `a`"]);
+    // Issue #34: an albedo of 1 loads, lowered to max_albedo, with one note naming it.
+    let mut c = scene(&default_toml());
+    c.mtl = "newmtl a\nKd 1.0 0.5 0.5\nnewmtl b\nKd 1 1 1\n";
+    let (ok, err) = run_with(&c, false);
+    assert!(ok, "{err}");
+    assert!(err.contains("albedo lowered to 0.98"), "{err}");
+    assert!(
+        err.contains("2 material(s)") && err.contains("`a`") && err.contains("`b`"),
+        "{err}"
+    );
+    assert_eq!(err.matches("albedo lowered").count(), 1, "{err}");
+    let mut c = scene(&format!("{}max_albedo = 0.9\n", default_toml()));
+    c.mtl = "newmtl a\nKd 0.95 0.5 0.5\n";
+    let (ok, err) = run_with(&c, false);
+    assert!(ok && err.contains("albedo lowered to 0.9 "), "{err}");
+    let c = scene(&format!("{}max_albedo = 1.0\n", default_toml()));
+    fails_with(c, &["max_albedo"]);
+}
+
+/// Issue #34: strict only for the MTL keys that change the answer; a typo elsewhere is a
+/// note with file:line.
+#[test]
+fn unused_mtl_keys_that_do_not_parse_are_notes() {
+    let mut c = scene(&default_toml());
+    c.mtl = "newmtl a\nKa 0.0000 0.0000 0.0000c\nKs x\nKd 0.5 0.5 0.5\n";
+    let (ok, err) = run_with(&c, false);
+    assert!(ok, "{err}");
+    assert!(
+        err.contains("m.mtl:2") && err.contains("`Ka` is not used here"),
+        "{err}"
+    );
+    assert!(err.contains("m.mtl:3"), "{err}");
+    let mut c = scene(&default_toml());
+    c.mtl = "newmtl a\nKd 0.5 0.5 0.5c\n";
+    fails_with(c, &["m.mtl", "Kd"]);
+}
+
+/// Issue #34: a group that exists without faces is named as such, not as missing.
+#[test]
+fn an_empty_group_is_not_a_missing_one() {
+    let toml = format!("[[object]]\nmesh = \"m.obj\"\ngroup = \"tallBox\"\n\n{LIGHT}\n{FAST}");
+    let mut c = scene(&toml);
+    let obj = format!("{OBJ}g tallBox\n");
+    c.obj = &obj;
+    fails_with(c, &["m.obj", "group `tallBox` (line 11) has no faces"]);
+    let mut c = scene(&toml.replace("tallBox", "nothere"));
+    c.obj = &obj;
+    fails_with(c, &["m.obj", "has no group `nothere`"]);
 }
 
 #[test]
@@ -344,22 +400,42 @@ fn bad_gltf_names_the_file_and_the_json_path() {
     doc.json["textures"] = json!([{"source": 0}]);
     doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
     gltf_fails_with(&doc, Layout::External, ok, &["meshes[0].primitives[0]", "TEXCOORD_0"]);
-    // glTF's default white albedo would create energy; a node that is its own child.
+    // An albedo above 1 (glTF's default white loads, lowered: tests/gltf.rs); a node that
+    // is its own child.
     let mut doc = one_mesh(&tetra(), [0.5; 3]);
-    doc.json["materials"][0] = json!({"name": "paper"});
+    doc.json["materials"][0] = json!({"name": "paper", "pbrMetallicRoughness": {"baseColorFactor": [1.2, 1, 1, 1]}});
+    gltf_fails_with(
+        &doc,
+        Layout::External,
+        ok,
+        &["m.gltf", "materials[0].pbrMetallicRoughness.baseColorFactor", "[0, 1]"],
+    );
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["nodes"][0]["children"] = json!([0]);
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "nodes[0]"]);
+    // Issue #35: a DAG, not a tree: each node lists the next twice, 40 deep (2^40 paths
+    // if walked), refused at once naming the node.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    let first = doc.json["nodes"].as_array().unwrap().len();
+    for k in 0..40 {
+        let next = first + k + 1;
+        let children = if k < 39 { json!([next, next]) } else { json!([]) };
+        doc.push("nodes", json!({"mesh": 0, "children": children}));
+    }
+    doc.json["scenes"][0]["nodes"] = json!([first]);
+    let t = std::time::Instant::now();
     gltf_fails_with(
         &doc,
         Layout::External,
         ok,
         &[
             "m.gltf",
-            "materials[0].pbrMetallicRoughness.baseColorFactor",
-            "would create energy",
+            &format!("nodes[{}]", first + 1),
+            "(listed twice)",
+            "at most one parent",
         ],
     );
-    let mut doc = one_mesh(&tetra(), [0.5; 3]);
-    doc.json["nodes"][0]["children"] = json!([0]);
-    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "nodes[0]"]);
+    assert!(t.elapsed().as_secs() < 60, "the DAG took {:?}", t.elapsed());
     // A broken data: URI.
     let mut doc = one_mesh(&tetra(), [0.5; 3]);
     doc.json["images"] = json!([{"uri": "data:image/png;base64,@@@"}]);

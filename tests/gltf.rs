@@ -455,3 +455,25 @@ fn mutated_gltf_never_panics() {
     eprintln!("mutated glTF: {loaded} loaded, {failed} refused with an error");
     assert!(loaded > 0 && failed > 0);
 }
+
+/// Issue #34: glTF's default white (no `pbrMetallicRoughness`: an albedo of 1) loads,
+/// lowered to `max_albedo`, with one note naming the material; a textured material whose
+/// mean albedo is above it has its factor scaled down to bring the mean there.
+#[test]
+fn an_albedo_of_one_loads_lowered_to_max_albedo() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let mut d = one_mesh(&p, [0.5; 3]);
+    d.json["materials"][0] = json!({"name": "paper"});
+    let g = d.write(dir.path(), "g", Layout::External);
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[]);
+    assert_eq!(s.materials[0].kd, [0.98; 3]);
+    let notes = s.report.notes.join("\n");
+    assert!(
+        notes.contains("albedo lowered to 0.98") && notes.contains("paper"),
+        "{notes}"
+    );
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[("max_albedo", "0.5")]);
+    assert_eq!(s.materials[0].kd, [0.5; 3]);
+}

@@ -96,10 +96,15 @@ fn short_mtl_colour_lines_follow_the_mtl_specification_or_name_the_line() {
         let (c, e) = d.solve(&[]);
         assert_eq!(c, 0, "{ok}: {e}");
     }
-    for bad in ["Kd", "Kd 0.5 0.5", "Ke", "Ka x y z", "Kd 0.5 0.5 0.5 0.5"] {
+    for bad in ["Kd", "Kd 0.5 0.5", "Ke", "Kd 0.5 0.5 0.5 0.5"] {
         let d = Dir::new(&default_toml(), OBJ, &format!("newmtl a\n{bad}\n"));
         d.solve_fails(&["m.mtl:2"]);
     }
+    // `Ka` is not read: a malformed one is a note naming the line (issue #34;
+    // tests/bad_input.rs `unused_mtl_keys_that_do_not_parse_are_notes`), not an error.
+    let d = Dir::new(&default_toml(), OBJ, "newmtl a\nKa x y z\n");
+    let (c, e) = d.solve(&[]);
+    assert_eq!(c, 0, "{e}");
     let d = Dir::new(&default_toml(), OBJ, "newmtl\n");
     d.solve_fails(&["m.mtl:1", "newmtl"]);
 }
@@ -811,4 +816,51 @@ fn a_key_given_twice_is_an_error_and_overrides_complete_the_file() {
         "sender_level=2",
     ]);
     assert_eq!(c, 0, "{e}");
+}
+
+/// Issue #35: an input that is a named pipe with no writer is an error naming it, not a
+/// process blocked forever in `open` (the mesh, and an MTL library).
+#[cfg(unix)]
+#[test]
+fn a_pipe_with_no_writer_is_an_error_not_a_hang() {
+    for (fifo, toml_mesh, obj) in [
+        ("f.obj", "f.obj", OBJ.to_string()),
+        ("f.mtl", "m.obj", OBJ.replace("m.mtl", "f.mtl")),
+    ] {
+        let d = Dir::new(&default_toml().replace("m.obj", toml_mesh), &obj, MTL);
+        let ok = Command::new("mkfifo").arg(d.path(fifo)).status().unwrap().success();
+        assert!(ok, "mkfifo");
+        let mut child = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+            .args(["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"])
+            .current_dir(d.dir.path())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        let status = loop {
+            if let Some(s) = child.try_wait().unwrap() {
+                break s;
+            }
+            if start.elapsed() > std::time::Duration::from_secs(60) {
+                child.kill().unwrap();
+                panic!("meshrad blocked on the pipe {fifo}");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        };
+        let mut err = String::new();
+        std::io::Read::read_to_string(&mut child.stderr.take().unwrap(), &mut err).unwrap();
+        assert_eq!(status.code(), Some(1), "{err}");
+        assert!(err.contains(fifo) && err.contains("pipe"), "{err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// Issue #35: a scene without `[camera]` whose geometry is small and far from the origin
+/// (the framing camera's position would round onto its target in f32) is an error naming
+/// the scene and what to give, not a panic.
+#[test]
+fn a_tiny_far_scene_without_a_camera_is_an_error() {
+    let obj = "v -1 -1 100000000\nv 1 -1 100000000\nv 1 1 100000000\nv -1 1 100000000\nf 1 2 3\nf 1 3 4\n";
+    let d = Dir::new(&default_toml(), obj, MTL);
+    d.solve_fails(&["s.toml", "[camera]", "single precision"]);
 }

@@ -395,11 +395,18 @@ pub fn session(a: SessionArgs) -> Result<()> {
                "lights": s.ed.scene.light_names})
     )?;
     out.flush()?;
-    for (i, line) in std::io::stdin().lock().lines().enumerate() {
-        let line = match line {
-            Ok(l) => l,
-            Err(e) => {
-                writeln!(out, "{}", json!({"ok": false, "error": format!("line {}: {e}", i + 1)}))?;
+    let stdin = std::io::stdin();
+    let mut input = stdin.lock();
+    for i in 0.. {
+        let line = match read_bounded_line(&mut input, MAX_SESSION_LINE)? {
+            None => break,
+            Some(Ok(l)) => l,
+            Some(Err(message)) => {
+                writeln!(
+                    out,
+                    "{}",
+                    json!({"ok": false, "error": short(&format!("line {}: {message}", i + 1))})
+                )?;
                 out.flush()?;
                 continue;
             }
@@ -409,10 +416,94 @@ pub fn session(a: SessionArgs) -> Result<()> {
         }
         let answer = match s.handle(&line, i + 1) {
             Ok(v) => v,
-            Err(e) => json!({"ok": false, "error": format!("{e:#}")}),
+            Err(e) => json!({"ok": false, "error": short(&format!("{e:#}"))}),
         };
         writeln!(out, "{answer}")?;
         out.flush()?;
     }
     Ok(())
+}
+
+/// The longest `session` line (bytes, without its newline): a probe of about 100,000
+/// points. A longer one is read to its end without being kept and answered with an error.
+pub const MAX_SESSION_LINE: usize = 8 << 20;
+
+/// The longest error text a `session` answer carries (characters).
+const MAX_ANSWER_ERROR: usize = 2000;
+
+/// `message`, cut to [`MAX_ANSWER_ERROR`] characters (an error may quote its input).
+fn short(message: &str) -> String {
+    match message.char_indices().nth(MAX_ANSWER_ERROR) {
+        None => message.to_string(),
+        Some((at, _)) => format!("{}… ({} bytes in all)", &message[..at], message.len()),
+    }
+}
+
+/// The next line of `r` without its newline, holding at most `max` bytes: `None` at the
+/// end of the input; `Some(Err(..))` for a line that is longer (consumed to its end) or
+/// not UTF-8.
+fn read_bounded_line(r: &mut impl BufRead, max: usize) -> std::io::Result<Option<std::result::Result<String, String>>> {
+    let mut line: Vec<u8> = Vec::new();
+    let mut total = 0usize;
+    let mut any = false;
+    loop {
+        let buf = match r.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if buf.is_empty() {
+            break;
+        }
+        any = true;
+        let (chunk, done) = match buf.iter().position(|&b| b == b'\n') {
+            Some(k) => (&buf[..k], Some(k + 1)),
+            None => (buf, None),
+        };
+        total += chunk.len();
+        if total <= max {
+            line.extend_from_slice(chunk);
+        } else {
+            line = Vec::new();
+        }
+        let used = done.unwrap_or(buf.len());
+        r.consume(used);
+        if done.is_some() {
+            break;
+        }
+    }
+    if !any {
+        return Ok(None);
+    }
+    if total > max {
+        return Ok(Some(Err(format!(
+            "the line has {total} bytes, over the {max} a session line may have (send fewer probe points per line)"
+        ))));
+    }
+    if line.last() == Some(&b'\r') {
+        line.pop();
+    }
+    Ok(Some(
+        String::from_utf8(line).map_err(|_| "the line is not UTF-8".to_string()),
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{read_bounded_line, short};
+
+    #[test]
+    fn session_lines_are_bounded_and_answers_short() {
+        let text = format!("ab\n{}\ncd\r\n\nef", "x".repeat(100));
+        let mut r = std::io::BufReader::with_capacity(7, text.as_bytes());
+        assert_eq!(read_bounded_line(&mut r, 10).unwrap(), Some(Ok("ab".into())));
+        let long = read_bounded_line(&mut r, 10).unwrap().unwrap().unwrap_err();
+        assert!(long.contains("100 bytes") && long.contains("over the 10"), "{long}");
+        assert_eq!(read_bounded_line(&mut r, 10).unwrap(), Some(Ok("cd".into())));
+        assert_eq!(read_bounded_line(&mut r, 10).unwrap(), Some(Ok("".into())));
+        assert_eq!(read_bounded_line(&mut r, 10).unwrap(), Some(Ok("ef".into())));
+        assert_eq!(read_bounded_line(&mut r, 10).unwrap(), None);
+        let e = short(&"y".repeat(10_000));
+        assert!(e.len() < 2100 && e.ends_with("(10000 bytes in all)"), "{}", e.len());
+    }
 }

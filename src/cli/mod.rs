@@ -325,6 +325,10 @@ pub struct ImageSummary {
     /// Pixels whose indirect irradiance came out negative (delta-hierarchy ringing) and
     /// were clamped to zero.
     pub negative_indirect_pixels_clamped: usize,
+    /// Pixel samples gathered where the basis read was doubted (`doubt_gather`), and
+    /// those that read the basis.
+    pub doubted_samples: u64,
+    pub basis_samples: u64,
 }
 
 impl ImageSummary {
@@ -337,6 +341,8 @@ impl ImageSummary {
             exposure,
             output_level: params.output_level(),
             negative_indirect_pixels_clamped: img.clamped,
+            doubted_samples: img.doubted_samples,
+            basis_samples: img.basis_samples,
         }
     }
 }

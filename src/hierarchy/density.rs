@@ -89,6 +89,20 @@ impl Density {
     }
 }
 
+/// Rays per gathering integral where the mean free path raised the node count `raise`-fold
+/// (`ALGORITHM.md` §3.2): `rays / raise`, rounded up to a multiple of 32 and at least 32
+/// (or `rays`, if fewer), so that a level's integrals trace about the rays they would at
+/// the asked density. A read averages about seven nodes' integrals, so `raise`-fold
+/// denser nodes with `1/raise` of the rays each carry about the same noise over the same
+/// area; what the density buys is resolution between surfaces.
+pub(crate) fn traded_rays(rays: u32, raise: f64) -> u32 {
+    if raise.is_nan() || raise <= 1.0 {
+        return rays;
+    }
+    let r = ((rays as f64 / raise / 32.0).ceil() as u32).saturating_mul(32);
+    r.clamp(rays.min(32), rays)
+}
+
 /// Rays [`free_path`] traces (its standard error is then about 1 % of the mean).
 const FREE_PATH_RAYS: usize = 8192;
 
@@ -154,4 +168,20 @@ pub(super) fn candidate_pools(scene: &Scene, p: &SolverParams, sides: &[bool], d
             )
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::traded_rays;
+
+    #[test]
+    fn rays_trade_for_the_raised_density() {
+        assert_eq!(traded_rays(512, 1.0), 512);
+        assert_eq!(traded_rays(512, 1.0 + 1e-12), 512);
+        assert_eq!(traded_rays(512, 4.93), 128);
+        assert_eq!(traded_rays(512, 8.0), 64);
+        assert_eq!(traded_rays(100, 8.0), 32);
+        assert_eq!(traded_rays(16, 8.0), 16);
+        assert_eq!(traded_rays(512, f64::NAN), 512);
+    }
 }

@@ -28,6 +28,8 @@ pub use crevice::{
 use glam::Vec3;
 use serde::Serialize;
 
+use crate::params::SolverParams;
+
 use crate::layout::{KdSplit, Node, ObjectInfo, Parent};
 use crate::params::MAX_LEVELS;
 use crate::scene::{reach, Scene};
@@ -141,6 +143,17 @@ pub struct Hierarchy {
 }
 
 impl Hierarchy {
+    /// The parameters a solve over this hierarchy runs with: `p`, with the rays per
+    /// gathering integral this hierarchy's density asks for (fewer than `p.rays` only
+    /// where the mean free path raised the node count, `ALGORITHM.md` §3.2; stats.json
+    /// `solve.rays_per_integral`). [`crate::Engine`] applies it.
+    pub fn gather_params(&self, p: &SolverParams) -> SolverParams {
+        let mut q = p.clone();
+        let raise = self.stats.coarsest_nodes / p.coarsest.max(1) as f64;
+        q.rays = density::traded_rays(p.rays, raise);
+        q
+    }
+
     /// Whether side `back` of global triangle `tri` got nodes. A hit on a side without
     /// them (no light reaches it: the inside of a closed solid, the back of a wall) reads
     /// nothing as a sender (`ALGORITHM.md` §5.1), without a search.

@@ -26,6 +26,10 @@ pub struct Images {
     /// Pixels whose reconstructed indirect irradiance was negative (delta-hierarchy
     /// ringing) and was clamped to zero.
     pub clamped: usize,
+    /// Pixel samples whose indirect light was gathered because the basis read was
+    /// doubted (`doubt_gather`), and those that read the basis.
+    pub doubted_samples: u64,
+    pub basis_samples: u64,
 }
 
 impl Images {
@@ -97,6 +101,8 @@ pub fn render_with(
         direct: direct.concat(),
         indirect,
         clamped,
+        doubted_samples: 0,
+        basis_samples: 0,
     }
 }
 
@@ -107,7 +113,9 @@ pub fn render_with(
 pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParams, progress: &Progress) -> Images {
     let lights = vec![true; scene.sources()];
     let read = Readout::for_pixels(scene, h, sol, params);
-    render_with(scene, &scene.camera, &lights, progress, |s, _| read.on_surface(s))
+    let mut img = render_with(scene, &scene.camera, &lights, progress, |s, _| read.on_surface(s));
+    (img.basis_samples, img.doubted_samples) = read.doubt_counts();
+    img
 }
 
 /// How bright the PNGs are drawn: `2^ev` times the linear radiance before gamma 2.2. The

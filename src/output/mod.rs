@@ -113,48 +113,103 @@ fn resolved(path: &Path) -> Option<PathBuf> {
     parent.canonicalize().ok().map(|d| d.join(name))
 }
 
-/// Whether two paths name the same file (the same resolved path, or the same inode).
-fn same_file(a: &Path, b: &Path) -> bool {
-    match (resolved(a), resolved(b)) {
-        (Some(x), Some(y)) if x == y => return true,
-        _ => {}
-    }
+/// What identifies a file: its resolved path, and its device and inode where it exists.
+fn file_keys(p: &Path) -> (Option<PathBuf>, Option<(u64, u64)>) {
     #[cfg(unix)]
-    {
+    let inode = {
         use std::os::unix::fs::MetadataExt as _;
-        if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
-            return x.dev() == y.dev() && x.ino() == y.ino();
-        }
-    }
-    false
+        std::fs::metadata(p).ok().map(|m| (m.dev(), m.ino()))
+    };
+    #[cfg(not(unix))]
+    let inode = None;
+    (resolved(p), inode)
 }
 
 /// Checked before any work: every output's directory exists, no output is a directory,
-/// no two outputs are the same file, and no output is one of `inputs`.
+/// no two outputs are the same file, and no output is one of `inputs` (the same file:
+/// the same resolved path, or the same inode). Linear in the number of outputs (an
+/// `animate` of thousands of frames plans thousands).
 pub fn check_outputs(outputs: &[(&str, PathBuf)], inputs: &[PathBuf]) -> Result<()> {
+    use std::collections::HashMap;
     let bad = |p: &Path, m: String| Error::Output {
         path: p.into(),
         message: m,
     };
+    let mut input_paths: HashMap<PathBuf, usize> = HashMap::new();
+    let mut input_inodes: HashMap<(u64, u64), usize> = HashMap::new();
+    for (i, p) in inputs.iter().enumerate() {
+        let (r, n) = file_keys(p);
+        if let Some(r) = r {
+            input_paths.entry(r).or_insert(i);
+        }
+        if let Some(n) = n {
+            input_inodes.entry(n).or_insert(i);
+        }
+    }
+    let mut paths: HashMap<PathBuf, usize> = HashMap::new();
+    let mut inodes: HashMap<(u64, u64), usize> = HashMap::new();
     for (k, (what, p)) in outputs.iter().enumerate() {
         if p.is_dir() {
             return Err(bad(p, format!("{what} is a directory, not a file")));
         }
-        if resolved(p).is_none() {
+        let (r, n) = file_keys(p);
+        let Some(r) = r else {
             return Err(bad(p, format!("{what}: its directory does not exist")));
-        }
-        if let Some(i) = inputs.iter().find(|i| same_file(p, i)) {
+        };
+        let input = input_paths.get(&r).or_else(|| n.and_then(|n| input_inodes.get(&n)));
+        if let Some(&i) = input {
             return Err(bad(
                 p,
-                format!("{what} would overwrite the input {}; choose another path", i.display()),
+                format!(
+                    "{what} would overwrite the input {}; choose another path",
+                    inputs[i].display()
+                ),
             ));
         }
-        if let Some((other, _)) = outputs[..k].iter().find(|(_, q)| same_file(p, q)) {
+        let earlier = paths.get(&r).or_else(|| n.and_then(|n| inodes.get(&n)));
+        if let Some(&j) = earlier {
             return Err(bad(
                 p,
-                format!("{what} is the same file as {other}; choose another path"),
+                format!("{what} is the same file as {}; choose another path", outputs[j].0),
             ));
+        }
+        paths.insert(r, k);
+        if let Some(n) = n {
+            inodes.insert(n, k);
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use std::path::PathBuf;
+
+    /// Issue #35: an `animate` of thousands of frames plans thousands of outputs; the
+    /// check is linear (the pairwise one took 42 s for 400 frames), and still finds a
+    /// repeated output and an input among them.
+    #[test]
+    fn checking_many_outputs_is_linear_and_still_finds_repeats() {
+        let dir = tempfile::tempdir().unwrap();
+        let input = dir.path().join("in.toml");
+        std::fs::write(&input, "").unwrap();
+        let mut planned: Vec<(&str, PathBuf)> = (0..20_000)
+            .map(|k| ("an image", dir.path().join(format!("f{k}.png"))))
+            .collect();
+        let t = std::time::Instant::now();
+        super::check_outputs(&planned, std::slice::from_ref(&input)).unwrap();
+        assert!(t.elapsed().as_secs() < 30, "{:?} for 20,000 outputs", t.elapsed());
+        planned.push(("stats.json", dir.path().join("sub/../f7.png")));
+        std::fs::create_dir(dir.path().join("sub")).unwrap();
+        let e = super::check_outputs(&planned, std::slice::from_ref(&input))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("same file as an image"), "{e}");
+        planned.pop();
+        planned.push(("probe.csv", input.clone()));
+        let e = super::check_outputs(&planned, std::slice::from_ref(&input))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("would overwrite the input"), "{e}");
+    }
 }

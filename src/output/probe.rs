@@ -170,3 +170,20 @@ pub fn csv(probes: &[Probe], values: &[ProbeValue]) -> String {
     }
     s
 }
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_readme_lists_every_probe_column() {
+        let readme = include_str!("../../README.md");
+        assert!(
+            readme.contains(&format!("`{}`", super::HEADER)),
+            "README.md lacks the probe header"
+        );
+        let n = super::HEADER.split(',').count();
+        assert!(
+            readme.contains(&format!("({n} columns)")),
+            "README.md does not count {n} columns"
+        );
+    }
+}

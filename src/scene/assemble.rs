@@ -97,7 +97,8 @@ impl Scene {
         // What the parameters alone ask for, before any mesh is read; checked again with
         // the triangles in `finish`.
         let camera = file.camera.as_ref().map(|c| Camera::from_entry(c, path)).transpose()?;
-        let placeholder = Camera::framing(Vec3::ZERO, Vec3::ONE);
+        let placeholder =
+            Camera::framing(Vec3::ZERO, Vec3::ONE, std::path::Path::new("")).expect("the unit box frames");
         plan_memory(
             limits,
             path,

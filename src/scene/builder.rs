@@ -253,13 +253,15 @@ impl Builder {
         &mut self,
         source: &Source,
         srgb: &[f32; 256],
+        max_albedo: f32,
     ) -> Result<(Vec<Material>, Vec<TextureInfo>, Vec<u32>)> {
         let mut textures = Vec::new();
         let mut texels = Vec::new();
         let mut texture_paths: Vec<(PathBuf, u32)> = Vec::new();
         let mut materials = Vec::new();
+        let mut clamped: Vec<String> = Vec::new();
         for m in &self.materials {
-            let kd = m.kd;
+            let mut kd = m.kd;
             let bad_kd = |msg: &str| Error::Mesh {
                 path: m.origin.clone(),
                 line: m.kd_line,
@@ -272,18 +274,19 @@ impl Builder {
             if kd.iter().any(|c| !c.is_finite() || *c < 0.0) {
                 return Err(bad_kd("must be finite and non-negative"));
             }
+            if kd.iter().any(|&c| c > 1.0) {
+                return Err(bad_kd("is an albedo above 1: the surface would create energy"));
+            }
             let texture = match &m.texture {
                 None => {
-                    if kd.iter().any(|&c| c >= 1.0) {
-                        return Err(bad_kd("is an albedo ≥ 1: the surface would create energy"));
+                    if kd.iter().any(|&c| c > max_albedo) {
+                        clamped.push(format!("`{}` (used by {}) Kd {kd:?}", m.name, m.used_by.display()));
+                        kd = kd.map(|c| c.min(max_albedo));
                     }
                     NONE
                 }
                 Some(t) => {
-                    if kd.iter().any(|&c| c > 1.0) {
-                        return Err(bad_kd("is above 1"));
-                    }
-                    match texture_paths.iter().position(|p| *p == (t.clone(), m.wrap)) {
+                    let k = match texture_paths.iter().position(|p| *p == (t.clone(), m.wrap)) {
                         Some(k) => k as u32,
                         None => {
                             let (w, h, px) = match &m.texture_data {
@@ -300,23 +303,39 @@ impl Builder {
                                 wrap: m.wrap,
                             };
                             texels.extend(px);
-                            let mean = texture::mean(&texels, &info, srgb) * Vec3::from(kd);
-                            if mean.max_element() >= 1.0 {
-                                return Err(Error::Texture {
-                                    path: source.display(t),
-                                    message: format!(
-                                        "mean albedo {mean} with Kd {kd:?} is ≥ 1: the surface would create energy"
-                                    ),
-                                });
-                            }
                             textures.push(info);
                             texture_paths.push((t.clone(), m.wrap));
                             (textures.len() - 1) as u32
                         }
+                    };
+                    // The texture's mean albedo under this material's factor: above
+                    // `max_albedo`, the factor is scaled down to bring it there.
+                    let mean = texture::mean(&texels, &textures[k as usize], srgb) * Vec3::from(kd);
+                    if mean.max_element() > max_albedo {
+                        clamped.push(format!(
+                            "`{}` (used by {}) mean albedo {:.3} of {} under Kd {kd:?}",
+                            m.name,
+                            m.used_by.display(),
+                            mean.max_element(),
+                            source.display(t).display()
+                        ));
+                        let f = max_albedo / mean.max_element();
+                        kd = kd.map(|c| c * f);
                     }
+                    k
                 }
             };
             materials.push(Material { kd, texture });
+        }
+        if !clamped.is_empty() {
+            let n = clamped.len();
+            let shown: Vec<String> = clamped.into_iter().take(20).collect();
+            self.report.notes.push(format!(
+                "albedo lowered to {max_albedo} (solver key max_albedo; at 1 light would never decay) in {n} \
+                 material(s): {}{}",
+                shown.join("; "),
+                if n > 20 { "; …" } else { "" }
+            ));
         }
         Ok((materials, textures, texels))
     }
@@ -330,7 +349,7 @@ impl Builder {
         params: &SolverParams,
     ) -> Result<Scene> {
         let srgb = texture::srgb_table();
-        let (materials, textures, texels) = self.resolve_materials(source, &srgb)?;
+        let (materials, textures, texels) = self.resolve_materials(source, &srgb, params.max_albedo)?;
         let uvs = if textures.is_empty() {
             Vec::new()
         } else {
@@ -343,7 +362,7 @@ impl Builder {
         })?;
         let camera = match camera {
             Some(c) => Camera::from_entry(c, path)?,
-            None => Camera::framing(lo, hi),
+            None => Camera::framing(lo, hi, path)?,
         };
         self.report.triangles = self.tris.len();
         self.report.textures = textures.len();

@@ -89,7 +89,10 @@ impl Camera {
     }
 
     /// A camera looking at a bounding box from its −z side.
-    pub fn framing(lo: Vec3, hi: Vec3) -> Camera {
+    /// An error naming `path` where the box is too small for its distance from the
+    /// origin to be framed in single precision (the camera's position would round onto
+    /// its target).
+    pub fn framing(lo: Vec3, hi: Vec3, path: &std::path::Path) -> Result<Camera> {
         let c = (lo + hi) * 0.5;
         let r = (hi - lo).length() * 0.5;
         let e = CameraEntry {
@@ -102,7 +105,17 @@ impl Camera {
             spp: None,
             filter: None,
         };
-        Camera::from_entry(&e, std::path::Path::new("")).expect("a framing camera is valid")
+        Camera::from_entry(&e, path).map_err(|_| Error::SceneValue {
+            path: path.into(),
+            key: "camera".into(),
+            message: format!(
+                "the scene has no [camera] and its geometry, {:.3e} across at {:.3e} from the origin, is too small \
+                 for its distance to be framed in single precision: give a [camera] (position, target), or \
+                 move the geometry nearer the origin",
+                2.0 * r,
+                c.length()
+            ),
+        })
     }
 
     /// Where sample `k` of [`Camera::spp`] falls for pixel `(x, y)` (pixel units, y down).
@@ -174,7 +187,7 @@ mod tests {
     use super::*;
 
     fn camera(spp: u32, filter: Filter) -> Camera {
-        let mut c = Camera::framing(Vec3::ZERO, Vec3::ONE);
+        let mut c = Camera::framing(Vec3::ZERO, Vec3::ONE, std::path::Path::new("")).unwrap();
         c.spp = spp;
         c.filter = filter;
         c

@@ -112,6 +112,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
     let default_material = out.mesh.materials.len() as u32;
 
     let roots = scene_roots(doc);
+    check_tree(doc, &roots).map_err(err)?;
     let mut walk = Walk {
         buffers: &buffers,
         cameras: &doc.as_json().cameras,
@@ -140,6 +141,40 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
     }
     input.note_unsupported(doc, &mut unsupported, &mut out.mesh);
     Ok(out)
+}
+
+/// glTF requires the node graph to be a forest: a node has at most one parent and a
+/// scene's roots have none. A node listed twice (by one parent, two parents, or a root
+/// list) would be walked once per path, 2^depth times for a chain that lists each next
+/// node twice, so such a file is refused at once, naming the node.
+fn check_tree(doc: &::gltf::Document, roots: &[::gltf::Node<'_>]) -> std::result::Result<(), String> {
+    let mut parent: Vec<Option<usize>> = vec![None; doc.nodes().len()];
+    for n in doc.nodes() {
+        for c in n.children() {
+            if let Some(p) = parent[c.index()].replace(n.index()) {
+                return Err(format!(
+                    "nodes[{}] is a child of nodes[{p}] and of nodes[{}]{}: glTF requires each node to have at most one \
+                     parent",
+                    c.index(),
+                    n.index(),
+                    if p == n.index() { " (listed twice)" } else { "" }
+                ));
+            }
+        }
+    }
+    let mut seen = HashSet::new();
+    for r in roots {
+        if let Some(p) = parent[r.index()] {
+            return Err(format!(
+                "nodes[{}] is a root of the scene and a child of nodes[{p}]: glTF requires a scene's nodes to be roots",
+                r.index()
+            ));
+        }
+        if !seen.insert(r.index()) {
+            return Err(format!("nodes[{}] is listed twice among the scene's nodes", r.index()));
+        }
+    }
+    Ok(())
 }
 
 /// The nodes at the top of the default scene's tree (or the first scene's; or every root
@@ -235,16 +270,10 @@ impl Input<'_> {
         let mut md = MtlData::grey(name, self.shown.clone());
         md.used_by = self.shown.clone();
         md.kd = [f[0], f[1], f[2]];
-        let textured = pbr.base_color_texture().is_some();
-        if md
-            .kd
-            .iter()
-            .any(|&c| !(0.0..=1.0).contains(&c) || (c == 1.0 && !textured))
-        {
+        if md.kd.iter().any(|&c| !(0.0..=1.0).contains(&c)) {
             return Err(err(format!(
-                "{at}.pbrMetallicRoughness.baseColorFactor {f:?}: the albedo must be in [0, 1){} (glTF's default is \
-                 white, an albedo of 1 that would create energy: give the material a colour below 1)",
-                if textured { ", or up to 1 under a texture" } else { "" }
+                "{at}.pbrMetallicRoughness.baseColorFactor {f:?}: the albedo must be in [0, 1] (an albedo of 1, \
+                 glTF's default white, is lowered to the solver key max_albedo)"
             )));
         }
         let strength = m.emissive_strength().unwrap_or(1.0);

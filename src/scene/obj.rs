@@ -108,7 +108,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
         message,
     })?;
     let (models, mut out) = parse_obj(source, rel, limit, &shown, &clean)?;
-    let models = select_groups(models, groups, &shown)?;
+    let models = select_groups(models, groups, &shown, &clean)?;
     add_triangles(&models, &mut out);
     if out.unassigned > 0 {
         out.materials.push(MtlData {
@@ -194,24 +194,43 @@ fn parse_obj(
 }
 
 /// With `groups`, only the models of those `o`/`g` groups (each must exist in the OBJ
-/// file `shown`); without, all of them.
-fn select_groups(models: Vec<tobj::Model>, groups: Option<&[String]>, shown: &Path) -> Result<Vec<tobj::Model>> {
+/// file `shown`, whose sanitised text is `text`, and have faces); without, all of them.
+fn select_groups(
+    models: Vec<tobj::Model>,
+    groups: Option<&[String]>,
+    shown: &Path,
+    text: &str,
+) -> Result<Vec<tobj::Model>> {
     Ok(match groups {
         None => models,
         Some(names) => {
-            if let Some(missing) = names.iter().find(|g| !models.iter().any(|m| &m.name == *g)) {
+            let has_faces = |g: &String| models.iter().any(|m| &m.name == g && !m.mesh.indices.is_empty());
+            if let Some(missing) = names.iter().find(|g| !has_faces(g)) {
                 let mut have: Vec<&str> = Vec::new();
-                for m in &models {
+                for m in models.iter().filter(|m| !m.mesh.indices.is_empty()) {
                     if !have.contains(&m.name.as_str()) {
                         have.push(&m.name);
                     }
                 }
                 let shown_have: Vec<&str> = have.iter().take(40).copied().collect();
+                // A group named but holding no face (McGuire's files put their `g` lines
+                // after the faces) is not a missing one.
+                let declared = text.lines().enumerate().find(|(_, l)| {
+                    let mut w = l.split_whitespace();
+                    matches!(w.next(), Some("o" | "g")) && w.collect::<Vec<_>>().join(" ") == **missing
+                });
+                let what = match declared {
+                    Some((i, _)) => format!(
+                        "group `{missing}` (line {}) has no faces: its faces come before it or belong to the next group",
+                        i + 1
+                    ),
+                    None => format!("has no group `{missing}`"),
+                };
                 return Err(Error::Mesh {
                     path: shown.to_path_buf(),
                     line: None,
                     message: format!(
-                        "has no group `{missing}` (its o/g groups: {}{})",
+                        "{what} (its o/g groups with faces: {}{})",
                         if have.is_empty() {
                             "none".to_string()
                         } else {
@@ -467,7 +486,19 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
         // Statements before the first `newmtl` belong to no material: tobj drops them too.
         let Some(cur) = out.last_mut() else { continue };
         if is_colour {
-            let c = colour(key, args).map_err(err)?;
+            let c = match colour(key, args) {
+                Ok(c) => c,
+                // Strict only where the value changes the answer (issue #34): `Ka`, `Ks`
+                // and `Tf` are not read, so a typo there is a note.
+                Err(m) if !matches!(key, "Kd" | "Ke") => {
+                    notes.push(format!(
+                        "{}:{line}: {m} (`{key}` is not used here: ignored)",
+                        shown.display()
+                    ));
+                    continue;
+                }
+                Err(m) => return Err(err(m)),
+            };
             match key {
                 "Kd" => {
                     cur.kd = c;
@@ -701,18 +732,17 @@ mod tests {
         assert_eq!(m[1].kd, [0.1, 0.2, 0.3]);
         let (m, _) = parse_mtl("newmtl a\nKe 17 12 4\nnewmtl b\n", d, d).unwrap();
         assert_eq!((m[0].emission, m[1].emission), ([17.0, 12.0, 4.0], [0.0; 3]));
-        for bad in [
-            "Kd",
-            "Kd 0.5 0.5",
-            "Ke 1 2",
-            "Ka x",
-            "Kd spectral a.rfl",
-            "Ke -1 0 0",
-            "Ke nan",
-        ] {
+        for bad in ["Kd", "Kd 0.5 0.5", "Ke 1 2", "Kd spectral a.rfl", "Ke -1 0 0", "Ke nan"] {
             let e = parse_mtl(&format!("newmtl a\n{bad}\n"), Path::new("m.mtl"), d).unwrap_err();
             assert!(e.to_string().starts_with("m.mtl:2:"), "{bad}: {e}");
         }
+        // Keys not read (Ka, Ks, Tf) are not strict: a value that does not parse is a note.
+        let (m, notes) = parse_mtl("newmtl a\nKa x\nKs 1 2\nKd 0.25\n", Path::new("m.mtl"), d).unwrap();
+        assert_eq!(m[0].kd, [0.25; 3]);
+        assert!(
+            notes.len() == 2 && notes[0].starts_with("m.mtl:2:") && notes[1].starts_with("m.mtl:3:"),
+            "{notes:?}"
+        );
         let (m, notes) = parse_mtl("newmtl a\nmap_Kd -s 2 2 1 -o 0.5 0 -bm 1 tex dir/a b.png\n", d, d).unwrap();
         assert_eq!(m[0].texture.as_deref(), Some(Path::new("tex dir/a b.png")));
         assert_eq!((m[0].uv_scale, m[0].uv_offset), ([2.0, 2.0], [0.5, 0.0]));

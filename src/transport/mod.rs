@@ -153,6 +153,9 @@ pub struct SolveStats {
     pub seconds_bounces: f64,
     pub bounces: Vec<BounceStats>,
     pub integrals: u64,
+    /// Rays per gathering integral (`rays`, or fewer where the mean free path raised the
+    /// node count: `Hierarchy::gather_params`).
+    pub rays_per_integral: u32,
     /// Gathering rays the integrals stand for (integrals × rays), traced or read from links.
     pub rays_gathered: u64,
     /// Gathering rays actually traced: `rays_gathered` less those served by links.
@@ -187,6 +190,7 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
     let mut stats = SolveStats {
         backend: backend.name(),
         variant: p.variant.name().into(),
+        rays_per_integral: p.rays,
         ..Default::default()
     };
     let t = Instant::now();

@@ -34,6 +34,20 @@ pub struct Readout<'a> {
     seed: u32,
     /// The final gather's directions (empty: read the basis).
     halton: Vec<Vec2>,
+    /// Where the basis is read: the gather at hits where it is doubted (pixels only).
+    doubt: Option<Doubt>,
+}
+
+/// A final gather at the pixel samples whose basis read cannot be trusted (`ALGORITHM.md`
+/// §6, issue #33): fewer than `min_nodes` nodes support the read, or (absolute
+/// hierarchies) their values spread by more than `max_spread` of the read.
+struct Doubt {
+    halton: Vec<Vec2>,
+    min_nodes: u32,
+    max_spread: f32,
+    delta: bool,
+    gathered: std::sync::atomic::AtomicU64,
+    read: std::sync::atomic::AtomicU64,
 }
 
 impl<'a> Readout<'a> {
@@ -43,9 +57,31 @@ impl<'a> Readout<'a> {
         Self::with_rays(scene, h, sol, p, p.final_gather)
     }
 
-    /// For pixels: a final gather of `final_gather_pixels` rays (0: none).
+    /// For pixels: a final gather of `final_gather_pixels` rays (0: none); without it,
+    /// the basis, and a gather of `doubt_gather` rays at the samples where the basis is
+    /// doubted (`doubt_nodes`, `doubt_spread`; 0 rays: never).
     pub fn for_pixels(scene: &'a Scene, h: &'a Hierarchy, sol: &'a Solution, p: &SolverParams) -> Self {
-        Self::with_rays(scene, h, sol, p, p.final_gather_pixels)
+        let mut r = Self::with_rays(scene, h, sol, p, p.final_gather_pixels);
+        if r.halton.is_empty() && p.doubt_gather > 0 {
+            r.doubt = Some(Doubt {
+                halton: halton_table(p.doubt_gather),
+                min_nodes: p.doubt_nodes,
+                max_spread: p.doubt_spread,
+                delta: p.variant.is_delta(),
+                gathered: Default::default(),
+                read: Default::default(),
+            });
+        }
+        r
+    }
+
+    /// Pixel samples that read the basis and that gathered where it was doubted (both 0
+    /// without [`Readout::for_pixels`]'s doubt).
+    pub fn doubt_counts(&self) -> (u64, u64) {
+        use std::sync::atomic::Ordering::Relaxed;
+        self.doubt
+            .as_ref()
+            .map_or((0, 0), |d| (d.read.load(Relaxed), d.gathered.load(Relaxed)))
     }
 
     /// With `rays` final-gather rays instead of the parameters' count.
@@ -57,6 +93,7 @@ impl<'a> Readout<'a> {
             level: p.output_level(),
             seed: p.seed,
             halton: if rays > 0 { halton_table(rays) } else { Vec::new() },
+            doubt: None,
         }
     }
 
@@ -86,6 +123,29 @@ impl<'a> Readout<'a> {
     pub fn on_surface(&self, s: &Surface) -> Vec3 {
         if self.gathers() {
             self.gather(s.p, s.n).mean
+        } else if let Some(d) = &self.doubt {
+            use std::sync::atomic::Ordering::Relaxed;
+            let o = s.object as usize;
+            let l = self.level as usize;
+            let (mut count, mut lo, mut hi) = (0u32, f32::INFINITY, f32::NEG_INFINITY);
+            let values = &self.sol.values.indirect;
+            self.h.for_each_read_weight(o, l, s.p_obj, s.n_obj, |j, _| {
+                count += 1;
+                let v = values[j];
+                let y = (v.x + v.y + v.z) / 3.0;
+                lo = lo.min(y);
+                hi = hi.max(y);
+            });
+            let read = self.sol.indirect_on(self.h, o, s.p_obj, s.n_obj, self.level);
+            let mean = (read.x + read.y + read.z) / 3.0;
+            let spread = !d.delta && count > 0 && hi - lo > d.max_spread * mean.max(0.0);
+            if count < d.min_nodes || spread {
+                d.gathered.fetch_add(1, Relaxed);
+                self.gather_with(s.p, s.n, &d.halton).mean
+            } else {
+                d.read.fetch_add(1, Relaxed);
+                read
+            }
         } else {
             self.sol
                 .indirect_on(self.h, s.object as usize, s.p_obj, s.n_obj, self.level)
@@ -102,12 +162,17 @@ impl<'a> Readout<'a> {
     /// The final gather at `(x, n)`. Its rotation is hashed from the point's coordinates,
     /// so a point gets the same rays whatever else is evaluated and in whatever order.
     fn gather(&self, x: Vec3, n: Vec3) -> Read {
+        self.gather_with(x, n, &self.halton)
+    }
+
+    /// [`Readout::gather`] over the directions `halton`.
+    fn gather_with(&self, x: Vec3, n: Vec3, halton: &[Vec2]) -> Read {
         let key = hash2(hash2(x.x.to_bits(), x.y.to_bits()), x.z.to_bits());
         let phi0 = integral_rotation(self.seed ^ 0x0f1a_6a7e, key);
         let (t, b) = onb(n);
         let o = self.scene.offset(x, n);
         let mut est = Estimator::default();
-        for &u in &self.halton {
+        for &u in halton {
             let d = cosine_direction(n, t, b, u, phi0);
             let Some(hit) = self.scene.intersect(&Ray { o, d }, f32::INFINITY) else {
                 continue;
@@ -119,7 +184,7 @@ impl<'a> Readout<'a> {
             let e = self.scene.direct(s.p, s.n) + self.basis(&s);
             est.add(s.albedo * e);
         }
-        let g = est.finish(self.halton.len());
+        let g = est.finish(halton.len());
         Read {
             mean: g.mean,
             std_err: g.std_err,
