@@ -443,4 +443,21 @@ fn bad_gltf_names_the_file_and_the_json_path() {
     doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
     doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(0);
     gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "images[0]", "base64"]);
+    // Issue #35: URIs that leave the glTF's folder (absolute, or with `..`).
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["images"] = json!([{"uri": "/etc/hostname"}]);
+    doc.json["textures"] = json!([{"source": 0}]);
+    doc.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    doc.json["meshes"][0]["primitives"][0]["attributes"]["TEXCOORD_0"] = json!(0);
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "images[0]", "no absolute path"]);
+    let doc = one_mesh(&tetra(), [0.5; 3]);
+    let up = |d: &Path| {
+        let g = d.join("m.gltf");
+        let text = std::fs::read_to_string(&g)
+            .unwrap()
+            .replace("\"m.bin\"", "\"sub/../m.bin\"");
+        assert!(text.contains("sub/../m.bin"));
+        std::fs::write(&g, text).unwrap();
+    };
+    gltf_fails_with(&doc, Layout::External, up, &["m.gltf", "buffers[0]", "no `..`"]);
 }

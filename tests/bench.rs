@@ -159,6 +159,35 @@ fn accuracy_quick() {
     assert!(cached.starts_with("# meshrad reference samples=2000 max_bounces=0"));
     let cached = std::fs::read_to_string(dir.path().join("a/cornell-camera-2-bounces-reference.csv")).unwrap();
     assert!(cached.starts_with("# meshrad reference samples=2000 max_bounces=2"));
+    // Issue #35: an `--only` label that matches nothing is an error listing the labels
+    // (it ran nothing and exited 0), here on the cached references.
+    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+        .args([
+            "bench",
+            "accuracy",
+            "cornell.toml",
+            "--quick",
+            "--backend",
+            "cpu",
+            "--probes",
+            "32",
+            "--reference-samples",
+            "2000",
+            "--out",
+            "a",
+            "-q",
+            "--only",
+            "approx rays=33",
+        ])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("--only") && err.contains("`approx rays=33`") && err.contains("`approx rays=32`"),
+        "{err}"
+    );
 }
 
 #[test]

@@ -547,7 +547,9 @@ fn session_answers_every_line_and_survives_bad_ones() {
         r#"{"stats": {}}"#,
         r#"{"fly": {}}"#,
         r#"{"solve": {}}"#,
+        r#"{"render": {"out": "afile"}}"#,
     ];
+    std::fs::write(d.join("afile"), "").unwrap();
     {
         let mut stdin = child.stdin.take().unwrap();
         for l in lines {
@@ -565,8 +567,14 @@ fn session_answers_every_line_and_survives_bad_ones() {
     let ok: Vec<bool> = answers[1..].iter().map(|a| a["ok"] == true).collect();
     assert_eq!(
         ok,
-        [true, true, false, false, true, false, true, true, true, false, true],
+        [true, true, false, false, true, false, true, true, true, false, true, false],
         "{answers:#?}"
+    );
+    // Issue #35: a render error names its line, and says what is wrong in words.
+    let e = answers[12]["error"].as_str().unwrap();
+    assert!(
+        e.starts_with("line 12: ") && e.contains("afile") && e.contains("not a directory"),
+        "{e}"
     );
     assert!(answers[4]["error"].as_str().unwrap().contains("line 4"));
     assert!(answers[4]["error"].as_str().unwrap().contains("nosuch"));

@@ -477,3 +477,35 @@ fn an_albedo_of_one_loads_lowered_to_max_albedo() {
     let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[("max_albedo", "0.5")]);
     assert_eq!(s.materials[0].kd, [0.5; 3]);
 }
+
+/// Issue #35: a non-unit rotation quaternion is normalised with a note (it scaled and
+/// sheared the mesh), and a zero one is refused naming the node.
+#[test]
+fn rotation_quaternions_are_normalised_or_refused() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    let load = |name: &str, q: serde_json::Value| {
+        let mut d = one_mesh(&p, [0.5; 3]);
+        d.json["nodes"][0]["rotation"] = q;
+        let g = d.write(dir.path(), name, Layout::External);
+        meshrad::Scene::load(&gltf_toml(dir.path(), &g, light), &[])
+    };
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let (unit, _) = load("unit", json!([0.0, h, 0.0, h])).unwrap();
+    let (half, _) = load("half", json!([0.0, 0.5, 0.0, 0.5])).unwrap();
+    assert_eq!(unit.tris.len(), half.tris.len());
+    for (a, b) in unit.tris.iter().zip(&half.tris) {
+        for (u, v) in [(a.v0, b.v0), (a.v1, b.v1), (a.v2, b.v2)] {
+            assert!((Vec3::from(u) - Vec3::from(v)).length() < 1e-5, "{u:?} {v:?}");
+        }
+    }
+    let notes = half.report.notes.join("\n");
+    assert!(
+        notes.contains("nodes[0].rotation") && notes.contains("normalised"),
+        "{notes}"
+    );
+    assert!(!unit.report.notes.join("\n").contains("normalised"));
+    let err = load("zero", json!([0.0, 0.0, 0.0, 0.0])).unwrap_err().to_string();
+    assert!(err.contains("zero.gltf") && err.contains("nodes[0].rotation"), "{err}");
+}

@@ -386,7 +386,7 @@ fn meshrad_rows(
     let both: Vec<Probe> = area.probes.iter().chain(&camera.probes).copied().collect();
     let mut rows = Vec::new();
     let mut hierarchies: Vec<(String, Hierarchy, f64)> = Vec::new();
-    let configs = sweep_configurations(base, opts);
+    let configs = sweep_configurations(base, opts)?;
     // The last solve on each backend, by its transport parameters: a configuration that
     // only changes how outputs read the solution (final_gather) reuses it.
     let mut last: Vec<Option<(String, Measured, Solution)>> = vec![None; backends.len()];
@@ -474,7 +474,7 @@ fn meshrad_rows(
 /// The sweep's configurations, labelled, as `opts` selects them; in the decomposition,
 /// every solve that reads its outputs by a final gather is also read from the basis
 /// directly (the same solve): both columns of each term.
-fn sweep_configurations(base: &SolverParams, opts: &AccuracyOptions) -> Vec<(String, SolverParams)> {
+fn sweep_configurations(base: &SolverParams, opts: &AccuracyOptions) -> Result<Vec<(String, SolverParams)>> {
     let mut configs = if opts.decompose {
         decomposition(base)
     } else {
@@ -483,10 +483,17 @@ fn sweep_configurations(base: &SolverParams, opts: &AccuracyOptions) -> Vec<(Str
     if opts.defaults_only {
         configs.truncate(1);
     }
+    if let Some(missing) = opts.only.iter().find(|o| !configs.iter().any(|(label, _)| label == *o)) {
+        let labels: Vec<String> = configs.iter().map(|(l, _)| format!("`{l}`")).collect();
+        return Err(crate::error::Error::param(
+            "--only",
+            format!("`{missing}` is none of this sweep's labels: {}", labels.join(", ")),
+        ));
+    }
     if !opts.only.is_empty() {
         configs.retain(|(label, _)| opts.only.iter().any(|o| o == label));
     }
-    configs
+    Ok(configs
         .into_iter()
         .flat_map(|(label, params)| {
             let mut out = vec![(label.clone(), params.clone())];
@@ -497,7 +504,7 @@ fn sweep_configurations(base: &SolverParams, opts: &AccuracyOptions) -> Vec<(Str
             }
             out
         })
-        .collect()
+        .collect())
 }
 
 /// The per-point error map: an ASCII PLY of the area-uniform points with their reference,

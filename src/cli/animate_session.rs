@@ -416,7 +416,16 @@ pub fn session(a: SessionArgs) -> Result<()> {
         }
         let answer = match s.handle(&line, i + 1) {
             Ok(v) => v,
-            Err(e) => json!({"ok": false, "error": short(&format!("{e:#}"))}),
+            Err(e) => {
+                // Every error answer names its line (some come from deeper than `handle`).
+                let m = format!("{e:#}");
+                let m = if m.starts_with(&format!("line {}:", i + 1)) {
+                    m
+                } else {
+                    format!("line {}: {m}", i + 1)
+                };
+                json!({"ok": false, "error": short(&m)})
+            }
         };
         writeln!(out, "{answer}")?;
         out.flush()?;

@@ -11,6 +11,12 @@ use crate::error::{Error, Result};
 
 /// Creates `dir` (and parents) if needed.
 pub fn ensure_dir(dir: &Path) -> Result<()> {
+    if dir.exists() && !dir.is_dir() {
+        return Err(Error::Output {
+            path: dir.into(),
+            message: "is a file, not a directory: the outputs go into a directory; name another".into(),
+        });
+    }
     std::fs::create_dir_all(dir).map_err(|e| Error::io(dir, e))
 }
 

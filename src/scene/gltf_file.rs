@@ -332,7 +332,11 @@ impl Input<'_> {
                     .map_err(|m| err(format!("images[{}]: {m}", img.index())))?;
                 (PathBuf::from(key), Some(bytes))
             }
-            (None, Some(uri)) => (self.dir.join(percent_decode(uri)), None),
+            (None, Some(uri)) => (
+                self.dir
+                    .join(inside_uri(uri).map_err(|m| err(format!("images[{}]: {m}", img.index())))?),
+                None,
+            ),
             (None, None) => {
                 return Err(err(format!(
                     "images[{}]: has neither a bufferView nor a uri",
@@ -452,7 +456,30 @@ impl Walk<'_> {
         if depth > MAX_DEPTH {
             return Err(format!("{at}: the node tree is deeper than {MAX_DEPTH} (a cycle?)"));
         }
-        let local = Mat4::from_cols_array_2d(&n.transform().matrix());
+        let local = match n.transform() {
+            ::gltf::scene::Transform::Matrix { matrix } => Mat4::from_cols_array_2d(&matrix),
+            ::gltf::scene::Transform::Decomposed {
+                translation,
+                rotation,
+                scale,
+            } => {
+                // glTF requires a unit quaternion; another one would scale and shear the
+                // mesh as the plain formula turns it into a matrix.
+                let q = glam::Quat::from_array(rotation);
+                let len = q.length();
+                if !(len.is_finite() && len > 1e-6) {
+                    return Err(format!(
+                        "{at}.rotation {rotation:?}: a rotation quaternion must have unit length (this one has none)"
+                    ));
+                }
+                if (len - 1.0).abs() > 1e-3 {
+                    self.out.mesh.notes.push(format!(
+                        "{at}.rotation {rotation:?} has length {len}: normalised (glTF requires unit quaternions)"
+                    ));
+                }
+                Mat4::from_scale_rotation_translation(Vec3::from(scale), q / len, Vec3::from(translation))
+            }
+        };
         if !local.is_finite() {
             return Err(format!("{at}: its transform is not finite"));
         }
@@ -898,10 +925,32 @@ fn read_uri(
             "`{uri}`: only files beside the glTF and data: URIs can be read"
         ));
     }
-    let rel = dir.join(percent_decode(uri));
+    let rel = dir.join(inside_uri(uri)?);
     let bytes = source.read_limited(&rel, limit).map_err(|e| e.to_string())?;
     inputs.push(source.display(&rel));
     Ok(Arc::from(bytes))
+}
+
+/// A file URI as a path inside the glTF's folder (its subfolders allowed): an absolute
+/// one, or one with a `..` step, would read files elsewhere (the README promises files
+/// beside the glTF), and is refused.
+fn inside_uri(uri: &str) -> std::result::Result<PathBuf, String> {
+    let decoded = percent_decode(uri);
+    let path = Path::new(&decoded);
+    let outside = path.is_absolute()
+        || decoded.starts_with('/')
+        || decoded.starts_with('\\')
+        || decoded.get(1..2) == Some(":")
+        || path
+            .components()
+            .any(|c| !matches!(c, std::path::Component::Normal(_) | std::path::Component::CurDir))
+        || decoded.split(['/', '\\']).any(|part| part == "..");
+    if outside {
+        return Err(format!(
+            "`{uri}`: a file URI must name a file in the glTF's folder or below it (no absolute path, no `..`)"
+        ));
+    }
+    Ok(path.to_path_buf())
 }
 
 /// `%20` and the like in a relative URI.
