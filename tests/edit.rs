@@ -469,6 +469,15 @@ fn animate_writes_frames_and_names_bad_keys() {
             "[[frame]]\nobjects.tallbox = { scale = -1.0 }\n",
             vec!["frame 0", "objects.tallbox.scale", "positive"],
         ),
+        // Issue #35: an overflowing scale is the scale's fault, not the translation's.
+        (
+            "[[frame]]\nobjects.tallbox = { scale = 1e30 }\n",
+            vec!["frame 0", "objects.tallbox.scale", "not finite"],
+        ),
+        (
+            "[[frame]]\nobjects.tallbox = { translate = [3e38, 0.0, 0.0] }\n",
+            vec!["frame 0", "objects.tallbox.translate", "not finite"],
+        ),
         (
             "[[frame]]\nlights.spot = { colour = [1.0, 1.0, 1.0] }\n",
             vec!["lights.spot.colour", "unknown key"],

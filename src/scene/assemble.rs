@@ -9,7 +9,7 @@ use glam::Vec3;
 use super::builder::{world_bounds, Builder};
 use super::gltf_file::GltfLight;
 use super::memory::plan_memory;
-use super::{config, light, sky, source, Camera, Scene, Source};
+use super::{config, light, sky, source, Camera, Scene, SceneObject, Source};
 use crate::error::{Error, Result};
 use crate::geom::Transform;
 use crate::layout::GpuLight;
@@ -160,11 +160,36 @@ impl Scene {
     /// file that holds `t` computes them.
     pub fn set_transform(&mut self, i: usize, t: Transform) -> std::result::Result<(), (&'static str, String)> {
         check_transform(&t)?;
-        let o = &mut self.objects[i];
-        o.transform = t;
-        o.to_world = t.to_world();
-        o.to_object = t.to_object();
-        let (lo, hi, scale) = world_bounds(&self.objects, &self.tris).map_err(|m| ("translate", m))?;
+        let before = self.objects[i].transform;
+        let place = |o: &mut SceneObject, t: Transform| {
+            o.transform = t;
+            o.to_world = t.to_world();
+            o.to_object = t.to_object();
+        };
+        place(&mut self.objects[i], t);
+        let (lo, hi, scale) = match world_bounds(&self.objects, &self.tris) {
+            Ok(b) => b,
+            Err(m) => {
+                // The field at fault: the scale (or rotation) if the object overflows
+                // where it stands at the origin, else the translation.
+                let mut at_origin = self.objects[i].clone();
+                place(
+                    &mut at_origin,
+                    Transform {
+                        translate: Vec3::ZERO,
+                        ..t
+                    },
+                );
+                let (a, b) = super::builder::object_box(&at_origin, &self.tris);
+                let key = if (b - a).length().is_finite() {
+                    "translate"
+                } else {
+                    "scale"
+                };
+                place(&mut self.objects[i], before);
+                return Err((key, format!("{m} with this transform")));
+            }
+        };
         self.bounds = (lo, hi);
         self.scale = scale;
         let placed: Vec<_> = self.objects.iter().map(|o| o.to_world).collect();
