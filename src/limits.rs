@@ -12,6 +12,12 @@ use crate::error::{Error, Result};
 /// BVH2 nodes (about 2 × 32 B), obvhs' build arrays (about 160 B), the copies made while
 /// reordering and tessellating, and the CWBVH (about 12 B, and 100 B for the
 /// single-triangle BVH2 it is converted from, while it is built).
+/// The largest emitted radiance accepted (MTL `Ke`, glTF emission, `[sky]` radiance and
+/// envmap texels times `scale`): irradiance is radiance times up to π, summed over
+/// samples and bounces in f32, so values near f32's maximum (3.4e38) would come out as
+/// inf. 1e30 leaves eight orders of magnitude for those sums.
+pub const MAX_RADIANCE: f32 = 1e30;
+
 pub const BYTES_PER_TRIANGLE: u64 = 448;
 /// Bytes per candidate sample of the hierarchy build (position, normal, triangle, the
 /// crevice memo and the dart-throwing grid).

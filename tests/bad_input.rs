@@ -460,4 +460,10 @@ fn bad_gltf_names_the_file_and_the_json_path() {
         std::fs::write(&g, text).unwrap();
     };
     gltf_fails_with(&doc, Layout::External, up, &["m.gltf", "buffers[0]", "no `..`"]);
+    // Issue #35: an emissive strength whose product would overflow the light's sums.
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
+    doc.json["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    doc.json["materials"][0]["extensions"] = json!({"KHR_materials_emissive_strength": {"emissiveStrength": 3e38}});
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "materials[0]", "overflow"]);
 }

@@ -469,6 +469,43 @@ fn bad_envmaps_are_named() {
     .unwrap();
     let e = load(&constant);
     assert!(e.contains("sky.scale") && e.contains("envmap"), "{e}");
+    // Issue #35: a scale of 0, and texels whose product with the scale would overflow the
+    // light's sums, name sky.scale (they said "the scene has no [sky]", or gave inf).
+    let path = envmap_plane(dir.path(), false, TINY, "");
+    let text = std::fs::read_to_string(&path).unwrap();
+    std::fs::write(
+        &path,
+        text.replace("envmap = \"sky.exr\"", "envmap = \"sky.exr\"\nscale = 0.0"),
+    )
+    .unwrap();
+    let e = load(&path);
+    assert!(e.contains("sky.scale") && e.contains("positive"), "scale 0: {e}");
+    for (texel, scale) in [(1.7e38f32, 1.0f32), (1e20, 1e15)] {
+        write_exr(&dir.path().join("sky.exr"), 4, 2, |_, _| [texel; 3]);
+        std::fs::write(
+            &path,
+            text.replace(
+                "envmap = \"sky.exr\"",
+                &format!("envmap = \"sky.exr\"\nscale = {scale:e}"),
+            ),
+        )
+        .unwrap();
+        let e = load(&path);
+        assert!(
+            e.contains("sky.exr") && e.contains("sky.scale") && e.contains("overflow"),
+            "{texel}: {e}"
+        );
+    }
+    let constant = small_sky(dir.path());
+    let text = std::fs::read_to_string(&constant).unwrap();
+    assert!(text.contains("radiance = [1, 1, 1]"));
+    std::fs::write(
+        &constant,
+        text.replace("radiance = [1, 1, 1]", "radiance = [3e38, 1, 1]"),
+    )
+    .unwrap();
+    let e = load(&constant);
+    assert!(e.contains("sky.radiance") && e.contains("overflow"), "{e}");
 }
 
 /// Antialiasing: the camera looks straight up at the square emitter, whose edge crosses

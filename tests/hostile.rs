@@ -864,3 +864,11 @@ fn a_tiny_far_scene_without_a_camera_is_an_error() {
     let d = Dir::new(&default_toml(), obj, MTL);
     d.solve_fails(&["s.toml", "[camera]", "single precision"]);
 }
+
+/// Issue #35: finite but extreme emission (MTL `Ke 3e38`) is refused naming the line, not
+/// turned into inf pixels with exit 0.
+#[test]
+fn emission_that_would_overflow_is_refused() {
+    let d = Dir::new(&default_toml(), OBJ, "newmtl a\nKd 0.5 0.5 0.5\nKe 3e38 0 0\n");
+    d.solve_fails(&["m.mtl:3", "Ke", "overflow"]);
+}

@@ -400,12 +400,24 @@ fn read_sky(s: &config::SkyEntry, path: &Path, source: &Source, limits: &Limits)
             if !l.is_finite() || l.min_element() < 0.0 {
                 return Err(err("radiance", format!("{r:?} must be finite and non-negative")));
             }
+            if l.max_element() > crate::limits::MAX_RADIANCE {
+                return Err(err(
+                    "radiance",
+                    format!(
+                        "{r:?} is above {:e}, where the light's sums would overflow",
+                        crate::limits::MAX_RADIANCE
+                    ),
+                ));
+            }
             Ok((l.max_element() > 0.0).then_some(sky::Sky::Constant(l)))
         }
         (None, Some(file)) => {
             let scale = s.scale.unwrap_or(1.0);
-            if !(scale.is_finite() && scale >= 0.0) {
-                return Err(err("scale", format!("{scale} must be finite and non-negative")));
+            if !(scale.is_finite() && scale > 0.0) {
+                return Err(err(
+                    "scale",
+                    format!("{scale} must be finite and positive (0 would turn the map off: remove [sky] instead)"),
+                ));
             }
             let rotate = s.rotate.unwrap_or(0.0);
             if !rotate.is_finite() {

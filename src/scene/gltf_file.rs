@@ -283,6 +283,13 @@ impl Input<'_> {
                 "{at}: emission {e:?} (emissiveFactor × emissive_strength) must be finite and non-negative"
             )));
         }
+        if e.iter().any(|&c| c > crate::limits::MAX_RADIANCE) {
+            return Err(err(format!(
+                "{at}: emission {e:?} (emissiveFactor × emissive_strength) is above {:e}, where the light's sums \
+                 would overflow",
+                crate::limits::MAX_RADIANCE
+            )));
+        }
         md.emission = e;
         if m.emissive_texture().is_some() {
             *unsupported

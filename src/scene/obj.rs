@@ -510,6 +510,12 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
                             "`Ke` {c:?} is an emitted radiance: it must not be negative"
                         )));
                     }
+                    if c.iter().any(|&x| x > crate::limits::MAX_RADIANCE) {
+                        return Err(err(format!(
+                            "`Ke` {c:?} is above {:e}, where the light's sums would overflow",
+                            crate::limits::MAX_RADIANCE
+                        )));
+                    }
                     cur.emission = c;
                     cur.ke_line = Some(line);
                 }

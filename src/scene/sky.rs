@@ -111,7 +111,16 @@ impl EnvMap {
                     i / w
                 )));
             }
-            texels.push(c * scale);
+            let l = c * scale;
+            if l.max_element().is_nan() || l.max_element() > crate::limits::MAX_RADIANCE {
+                return Err(bad(format!(
+                    "pixel ({}, {}) is {c}, times sky.scale {scale} above {:e}, where the light's sums would overflow",
+                    i % w,
+                    i / w,
+                    crate::limits::MAX_RADIANCE
+                )));
+            }
+            texels.push(l);
         }
         Ok(EnvMap::from_texels(shown, w, h, texels, rotate_deg))
     }
