@@ -454,11 +454,27 @@ impl Editor {
 
     /// Solves the scene as it now is: the hierarchy arranged (or rebuilt after a scale
     /// change) if objects moved, then the direct light and the bounce loop.
+    /// A solve that fails leaves the edits pending (`is_stale`), so that nothing reads
+    /// the last solution as if it were this scene's, and the next solve tries again.
     pub fn solve(&mut self, progress: &Progress) -> Result<Frame> {
-        let all = Instant::now();
         let mut changed = std::mem::take(&mut self.pending);
+        match self.solve_changed(&mut changed, progress) {
+            Ok(f) => Ok(f),
+            Err(e) => {
+                let since = std::mem::take(&mut self.pending);
+                changed.merge(since);
+                changed.clips_computed = 0;
+                changed.parents_computed = 0;
+                self.pending = changed;
+                Err(e)
+            }
+        }
+    }
+
+    fn solve_changed(&mut self, changed: &mut Changed, progress: &Progress) -> Result<Frame> {
+        let all = Instant::now();
         let t = Instant::now();
-        self.update(&mut changed, progress)?;
+        self.update(changed, progress)?;
         let update = t.elapsed().as_secs_f64();
         // Nothing moved: every gathering ray hits what it hit and reads the node it read in
         // the last solve, so that solve's links serve this one (relighting). On a device,
@@ -478,7 +494,7 @@ impl Editor {
         Ok(Frame {
             solution,
             gpu,
-            changed,
+            changed: std::mem::take(changed),
             seconds,
         })
     }

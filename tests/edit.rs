@@ -644,3 +644,31 @@ fn groups_and_names_are_checked() {
         }
     }
 }
+
+/// Issue #35: a solve that fails after an edit leaves the edit pending: the editor stays
+/// stale (a session's probe then solves again instead of reading the old solution), and
+/// the next solve that succeeds applies it (here the rebuild a scale asks for).
+#[test]
+fn a_failed_solve_keeps_the_edit_pending() {
+    let dir = common::tmpdir();
+    let (scene, params) = load(dir.path(), "f.toml", &cornell("", SPOT, SMALL));
+    let mut ed = Editor::new(scene, params.clone(), meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
+    ed.solve(&Progress::hidden()).unwrap();
+    assert!(!ed.is_stale());
+    ed.apply(&edit("objects.tallbox = { scale = 2.0 }"), "test").unwrap();
+    // The rebuild the scale asks for is refused (the candidate cap below what a level needs).
+    ed.params.max_candidates = 10;
+    let Err(e) = ed.solve(&Progress::hidden()) else {
+        panic!("the solve should have been refused")
+    };
+    assert!(e.to_string().contains("max_candidates"), "{e}");
+    assert!(ed.is_stale(), "a failed solve dropped the pending edit");
+    assert!(
+        ed.solve(&Progress::hidden()).is_err(),
+        "the retry must fail the same way"
+    );
+    ed.params.max_candidates = params.max_candidates;
+    let f = ed.solve(&Progress::hidden()).unwrap();
+    assert!(f.changed.rebuild && f.changed.objects == ["tallbox"], "{:?}", f.changed);
+    assert!(!ed.is_stale());
+}
