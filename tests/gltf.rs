@@ -509,3 +509,40 @@ fn rotation_quaternions_are_normalised_or_refused() {
     let err = load("zero", json!([0.0, 0.0, 0.0, 0.0])).unwrap_err().to_string();
     assert!(err.contains("zero.gltf") && err.contains("nodes[0].rotation"), "{err}");
 }
+
+/// Issue #35: a glTF camera under a zero matrix is named (it was reported as the TOML's
+/// `camera.target`), and a valid camera far from the origin works.
+#[test]
+fn gltf_cameras_far_away_work_and_degenerate_ones_are_named() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    let with_camera = |name: &str, node: serde_json::Value| {
+        let mut d = one_mesh(&p, [0.5; 3]);
+        let cam = d.push(
+            "cameras",
+            json!({"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}}),
+        );
+        let mut node = node;
+        node["camera"] = json!(cam);
+        let n = d.push("nodes", node);
+        d.json["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(n));
+        let g = d.write(dir.path(), name, Layout::External);
+        (meshrad::Scene::load(&gltf_toml(dir.path(), &g, light), &[]), n)
+    };
+    let (r, n) = with_camera("zero", json!({"scale": [0.0, 0.0, 0.0]}));
+    let err = r.map(|_| ()).unwrap_err().to_string();
+    assert!(
+        err.contains("zero.gltf") && err.contains(&format!("nodes[{n}]")) && err.contains("cameras[0]"),
+        "{err}"
+    );
+    assert!(!err.contains("camera.target"), "{err}");
+    let (r, _) = with_camera("far", json!({"translation": [0.0, 0.0, 1e9]}));
+    let (s, _) = r.unwrap();
+    assert!(
+        (s.camera.forward - Vec3::NEG_Z).length() < 1e-6,
+        "{:?}",
+        s.camera.forward
+    );
+    assert_eq!(s.camera.position, Vec3::new(0.0, 0.0, 1e9));
+}

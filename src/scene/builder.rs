@@ -138,9 +138,13 @@ impl Builder {
                 Some(a) => (((256.0 * a).round() as u32).clamp(1, 16384), 256),
                 None => (256, 256),
             };
+            // The target a step along the view that f32 resolves at the camera's distance
+            // from the origin (a camera at 1e9 plus a unit vector rounds back onto itself).
+            let step = 1f32.max(p.length() * 1e-3);
+            let forward = xform_vector(&to_world, c.forward).normalize_or_zero();
             self.gltf_camera = Some(config::CameraEntry {
                 position: p.to_array(),
-                target: (p + xform_vector(&to_world, c.forward)).to_array(),
+                target: (p + forward * step).to_array(),
                 up: xform_vector(&to_world, c.up).to_array(),
                 fov: c.fov,
                 width: w,

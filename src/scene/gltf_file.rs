@@ -528,10 +528,25 @@ impl Walk<'_> {
                                 c.index()
                             ));
                         }
+                        let (position, forward, up) = (
+                            m.transform_point3(Vec3::ZERO),
+                            m.transform_vector3(Vec3::NEG_Z),
+                            m.transform_vector3(Vec3::Y),
+                        );
+                        let degenerate = !(position.is_finite() && forward.is_finite() && up.is_finite())
+                            || forward.length() < 1e-12
+                            || up.length() < 1e-12
+                            || forward.normalize().cross(up.normalize()).length() < 1e-6;
+                        if degenerate {
+                            return Err(format!(
+                                "{at}: the camera cameras[{cj}] placed by this node's transform has no viewing direction \
+                                 (a zero or degenerate matrix): fix the node's transform, or give the scene a [camera]"
+                            ));
+                        }
                         self.out.camera = Some(GltfCamera {
-                            position: m.transform_point3(Vec3::ZERO),
-                            forward: m.transform_vector3(Vec3::NEG_Z),
-                            up: m.transform_vector3(Vec3::Y),
+                            position,
+                            forward,
+                            up,
                             fov: yfov.to_degrees(),
                             aspect: p.aspect_ratio.filter(|a| a.is_finite() && *a > 0.0),
                         });
