@@ -64,8 +64,16 @@ impl Outputs {
         self.files.iter().map(|(p, _)| p.as_path())
     }
 
-    /// Writes every file, or none.
+    /// Writes every file, or none: each is written to a temporary file beside its
+    /// destination, then the temporaries are moved into place, an existing destination
+    /// first moved aside; if any move fails, those done are undone (the earlier files
+    /// back in place), so the set on disk is the old one or the new one, never a mix.
     pub fn commit(self) -> Result<()> {
+        self.commit_failing_at(None)
+    }
+
+    /// [`Outputs::commit`], with the move of file `fail` failing (tests of the undo).
+    fn commit_failing_at(self, fail: Option<usize>) -> Result<()> {
         let mut temps: Vec<(PathBuf, &Path)> = Vec::new();
         let cleanup = |temps: &[(PathBuf, &Path)]| {
             for (t, _) in temps {
@@ -73,7 +81,7 @@ impl Outputs {
             }
         };
         for (path, bytes) in &self.files {
-            let tmp = temp_path(path);
+            let tmp = temp_path(path, "tmp");
             let written = std::fs::File::create(&tmp).and_then(|mut f| {
                 use std::io::Write as _;
                 f.write_all(bytes)?;
@@ -86,23 +94,65 @@ impl Outputs {
             }
             temps.push((tmp, path));
         }
+        // (destination, where its earlier file was moved) for every move done.
+        let mut done: Vec<(&Path, Option<PathBuf>)> = Vec::new();
         for (k, (tmp, path)) in temps.iter().enumerate() {
-            if let Err(e) = std::fs::rename(tmp, path) {
-                cleanup(&temps[k..]);
-                return Err(Error::io(*path, e));
+            let moved = (|| -> std::io::Result<Option<PathBuf>> {
+                let old = match std::fs::symlink_metadata(path) {
+                    Ok(_) => {
+                        let old = temp_path(path, "old");
+                        std::fs::rename(path, &old)?;
+                        Some(old)
+                    }
+                    Err(_) => None,
+                };
+                let r = if fail == Some(k) {
+                    Err(std::io::Error::other("a move made to fail (test)"))
+                } else {
+                    std::fs::rename(tmp, path)
+                };
+                if let Err(e) = r {
+                    if let Some(o) = &old {
+                        let _ = std::fs::rename(o, path);
+                    }
+                    return Err(e);
+                }
+                Ok(old)
+            })();
+            match moved {
+                Ok(old) => done.push((path, old)),
+                Err(e) => {
+                    for (p, old) in done.iter().rev() {
+                        match old {
+                            Some(o) => {
+                                let _ = std::fs::rename(o, p);
+                            }
+                            None => {
+                                let _ = std::fs::remove_file(p);
+                            }
+                        }
+                    }
+                    cleanup(&temps[k..]);
+                    return Err(Error::io(*path, e));
+                }
+            }
+        }
+        for (_, old) in done {
+            if let Some(o) = old {
+                let _ = std::fs::remove_file(o);
             }
         }
         Ok(())
     }
 }
 
-/// A temporary name beside `path`: `.NAME.meshrad-PID.tmp`.
-fn temp_path(path: &Path) -> PathBuf {
+/// A temporary name beside `path`: `.NAME.meshrad-PID.EXT`.
+fn temp_path(path: &Path, ext: &str) -> PathBuf {
     let name = path
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    path.with_file_name(format!(".{name}.meshrad-{}.tmp", std::process::id()))
+    path.with_file_name(format!(".{name}.meshrad-{}.{ext}", std::process::id()))
 }
 
 /// `path` made absolute with symbolic links resolved, also when the file does not exist
@@ -190,6 +240,36 @@ pub fn check_outputs(outputs: &[(&str, PathBuf)], inputs: &[PathBuf]) -> Result<
 #[cfg(test)]
 mod tests {
     use std::path::PathBuf;
+
+    /// Issue #35: a move that fails midway undoes the moves before it: the earlier
+    /// outputs are back as they were, the new ones gone, no temporary left.
+    #[test]
+    fn a_failed_commit_leaves_the_earlier_set() {
+        let dir = tempfile::tempdir().unwrap();
+        let p = |n: &str| dir.path().join(n);
+        std::fs::write(p("a.png"), "old a").unwrap();
+        std::fs::write(p("c.json"), "old c").unwrap();
+        let set = || {
+            let mut o = super::Outputs::default();
+            o.add(p("a.png"), b"new a".to_vec());
+            o.add(p("b.exr"), b"new b".to_vec());
+            o.add(p("c.json"), b"new c".to_vec());
+            o
+        };
+        assert!(set().commit_failing_at(Some(2)).is_err());
+        assert_eq!(std::fs::read_to_string(p("a.png")).unwrap(), "old a");
+        assert!(!p("b.exr").exists());
+        assert_eq!(std::fs::read_to_string(p("c.json")).unwrap(), "old c");
+        let mut names: Vec<String> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        names.sort();
+        assert_eq!(names, ["a.png", "c.json"]);
+        set().commit().unwrap();
+        assert_eq!(std::fs::read_to_string(p("c.json")).unwrap(), "new c");
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 3);
+    }
 
     /// Issue #35: an `animate` of thousands of frames plans thousands of outputs; the
     /// check is linear (the pairwise one took 42 s for 400 frames), and still finds a
