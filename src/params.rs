@@ -235,7 +235,7 @@ impl Default for SolverParams {
             output_level: None,
             final_gather: 1024,
             final_gather_pixels: 0,
-            doubt_gather: 0,
+            doubt_gather: 16,
             doubt_nodes: 4,
             doubt_spread: 1.0,
             sparse_parents: 3,

@@ -146,7 +146,7 @@ fn albedo_near_one_converges() {
     for (rho, gpu) in [(0.95, false), (0.99, false), (0.95, true)] {
         let dir = common::tmpdir();
         let solver = "levels = 3\ncoarsest = 40\nrays = 32\nbounces = 5000\nsender_level = 2\nvariant = \"modified\"\n\
-                      stop_threshold = 1e-5\n";
+                      stop_threshold = 1e-5\nmax_albedo = 0.999\n";
         let p = furnace(dir.path(), 1.0, 3, rho, [0.0; 3], 1.0, solver).unwrap();
         let (scene, params) = common::load(&p, &[]);
         let (h, sol) = if gpu {

@@ -128,15 +128,24 @@ impl<'a> Readout<'a> {
             let o = s.object as usize;
             let l = self.level as usize;
             let (mut count, mut lo, mut hi) = (0u32, f32::INFINITY, f32::NEG_INFINITY);
+            let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
             let values = &self.sol.values.indirect;
-            self.h.for_each_read_weight(o, l, s.p_obj, s.n_obj, |j, _| {
+            // The support and (absolute hierarchies) the read itself in one pass: the
+            // Shepard sums of `reconstruct::shepard_sums`, in its order.
+            self.h.for_each_read_weight(o, l, s.p_obj, s.n_obj, |j, w| {
                 count += 1;
                 let v = values[j];
+                sum += v.truncate() * w;
+                wsum += w;
                 let y = (v.x + v.y + v.z) / 3.0;
                 lo = lo.min(y);
                 hi = hi.max(y);
             });
-            let read = self.sol.indirect_on(self.h, o, s.p_obj, s.n_obj, self.level);
+            let read = if !d.delta && wsum > 0.0 {
+                sum / wsum
+            } else {
+                self.sol.indirect_on(self.h, o, s.p_obj, s.n_obj, self.level)
+            };
             let mean = (read.x + read.y + read.z) / 3.0;
             let spread = !d.delta && count > 0 && hi - lo > d.max_spread * mean.max(0.0);
             if count < d.min_nodes || spread {
