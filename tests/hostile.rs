@@ -872,3 +872,34 @@ fn emission_that_would_overflow_is_refused() {
     let d = Dir::new(&default_toml(), OBJ, "newmtl a\nKd 0.5 0.5 0.5\nKe 3e38 0 0\n");
     d.solve_fails(&["m.mtl:3", "Ke", "overflow"]);
 }
+
+/// Issue #34: a box around the scene keeps the sun out; the run warns that no light
+/// reaches what the camera sees and names the enclosing object, in stderr and stats.json.
+#[test]
+fn a_box_around_the_scene_is_named_when_everything_is_black() {
+    let obj = "mtllib m.mtl\nusemtl a\n\
+               v -10 -10 -10\nv 10 -10 -10\nv 10 10 -10\nv -10 10 -10\n\
+               v -10 -10 10\nv 10 -10 10\nv 10 10 10\nv -10 10 10\n\
+               g outer\nf 1 2 3\nf 1 3 4\nf 5 7 6\nf 5 8 7\nf 1 5 6\nf 1 6 2\n\
+               f 4 3 7\nf 4 7 8\nf 1 4 8\nf 1 8 5\nf 2 6 7\nf 2 7 3\n\
+               v -1 -1 5\nv 1 -1 5\nv 1 1 5\nv -1 1 5\n\
+               g inner\nf 9 10 11\nf 9 11 12\n";
+    let toml = format!(
+        "[[object]]\nname = \"skybox\"\nmesh = \"m.obj\"\ngroup = \"outer\"\n\n\
+         [[object]]\nname = \"statue\"\nmesh = \"m.obj\"\ngroup = \"inner\"\n\n\
+         [[light]]\ntype = \"directional\"\ndirection = [0.1, -1.0, 0.2]\nirradiance = [1.0, 1.0, 1.0]\n\n\
+         [camera]\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 5.0]\nwidth = 16\nheight = 16\n\n{FAST}"
+    );
+    let d = Dir::new(&toml, obj, MTL);
+    let (code, err) = d.solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("warning: no light reaches what the camera sees"), "{err}");
+    assert!(err.contains("object 0 (`skybox`) encloses the others"), "{err}");
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.path("o/stats.json")).unwrap()).unwrap();
+    let w = stats["image"]["warnings"].as_array().unwrap();
+    assert_eq!(w.len(), 2, "{w:?}");
+    // A lit scene says nothing.
+    let (code, err) = Dir::default_scene().solve(&[]);
+    assert!(code == 0 && !err.contains("warning"), "{err}");
+}

@@ -329,6 +329,9 @@ pub struct ImageSummary {
     /// those that read the basis.
     pub doubted_samples: u64,
     pub basis_samples: u64,
+    /// What left the run dark, when it is (`output::dark`): no node lit, no pixel lit, the
+    /// object that encloses the rest.
+    pub warnings: Vec<String>,
 }
 
 impl ImageSummary {
@@ -343,6 +346,7 @@ impl ImageSummary {
             negative_indirect_pixels_clamped: img.clamped,
             doubted_samples: img.doubted_samples,
             basis_samples: img.basis_samples,
+            warnings: Vec::new(),
         }
     }
 }
@@ -528,6 +532,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let t = Instant::now();
     progress.stage("images");
     let img = image::render(&scene, h, sol, &params, &progress);
+    let dark = output::dark::warnings(&scene, h, sol, Some(&img));
     let mut files = output::Outputs::default();
     let exposure = image::encode_all(&a.out, &img, a.image.exposure.unwrap_or_default(), &mut files)?;
     if let Some(p) = &a.export_nodes {
@@ -553,12 +558,18 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
         hierarchy: &h.stats,
         solve: &sol.stats,
         gpu: run.gpu.as_ref(),
-        image: ImageSummary::of(&img, &scene, &params, exposure),
+        image: ImageSummary {
+            warnings: dark.clone(),
+            ..ImageSummary::of(&img, &scene, &params, exposure)
+        },
         seconds,
     };
     let stats_path = a.out.join("stats.json");
     files.add(&stats_path, output::json_bytes(&stats_path, &stats)?);
     files.commit()?;
+    for w in &dark {
+        eprintln!("warning: {w}");
+    }
     if !a.solver.quiet {
         println!(
             "{}: {} nodes, {} integrals in {:.2} s ({}, {}); images in {}",
@@ -586,6 +597,9 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     }
     let run = crate::solve(&scene, &params, &mut engine(&a.solver, a.solver.quiet)?, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
+    for w in output::dark::warnings(&scene, &run.hierarchy, &run.solution, None) {
+        eprintln!("warning: {w}");
+    }
     let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);
     let text = probe::csv(&probes, &values);
     progress.finish();

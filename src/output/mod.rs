@@ -1,6 +1,7 @@
 //! What a solve writes: images from the camera (EXR linear, PNG gamma 2.2), the node cloud
 //! (PLY), probe values (CSV) and stats.json.
 
+pub mod dark;
 pub mod image;
 pub mod ply;
 pub mod probe;

@@ -1,0 +1,67 @@
+//! No silent black (issue #34): warnings for a run whose light reaches no node, or no
+//! pixel the camera sees, naming the object whose outside alone catches the light when
+//! it encloses the rest (a skybox mesh around a city keeps the sun and the sky out).
+
+use glam::Vec3;
+
+use super::image::Images;
+use crate::hierarchy::Hierarchy;
+use crate::scene::{object_box, Scene};
+use crate::transport::Solution;
+
+/// The warnings for `sol` (and its image, when one was drawn); empty when light arrives.
+pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Images>) -> Vec<String> {
+    let mut out = Vec::new();
+    // Nodes with direct light, per object.
+    let lit: Vec<usize> = h
+        .objects
+        .iter()
+        .map(|ol| {
+            (0..ol.start.len())
+                .flat_map(|l| ol.start[l] as usize..(ol.start[l] + ol.count[l]) as usize)
+                .filter(|&j| sol.values.direct[j].truncate().max_element() > 0.0)
+                .count()
+        })
+        .collect();
+    let total: usize = lit.iter().sum();
+    let dark_image = img.is_some_and(|i| i.total().iter().all(|p| p.max_element() <= 0.0));
+    if total == 0 {
+        out.push(
+            "no light reaches any node: the lights, emitters and sky light nothing the solve can see (every \
+             image and probe holds at most the emitters' own radiance)"
+                .into(),
+        );
+    } else if dark_image {
+        out.push("no light reaches what the camera sees: every pixel is black".into());
+    }
+    if (total == 0 || dark_image) && scene.objects.len() > 1 {
+        if let Some(e) = enclosing(scene, &lit) {
+            let o = &scene.objects[e];
+            out.push(format!(
+                "object {e} (`{}`) encloses the others, and the light reaches only its outside: a box or skybox \
+                 around the scene keeps the lights and the sky out; leave it out (`group`) or give it no faces \
+                 toward the light",
+                o.name
+            ));
+        }
+    }
+    out
+}
+
+/// The one object whose nodes alone are lit and whose box holds every other object's.
+fn enclosing(scene: &Scene, lit: &[usize]) -> Option<usize> {
+    let mut lit_objects = lit.iter().enumerate().filter(|(_, &n)| n > 0).map(|(o, _)| o);
+    let e = lit_objects.next()?;
+    if lit_objects.next().is_some() {
+        return None;
+    }
+    let (lo, hi) = object_box(&scene.objects[e], &scene.tris);
+    let inside = |a: Vec3, b: Vec3| a.cmpge(lo).all() && b.cmple(hi).all();
+    (0..scene.objects.len())
+        .filter(|&o| o != e)
+        .all(|o| {
+            let (a, b) = object_box(&scene.objects[o], &scene.tris);
+            inside(a, b)
+        })
+        .then_some(e)
+}
