@@ -546,3 +546,37 @@ fn gltf_cameras_far_away_work_and_degenerate_ones_are_named() {
     );
     assert_eq!(s.camera.position, Vec3::new(0.0, 0.0, 1e9));
 }
+
+/// Issue #35: buffers that name one file read it once, and what the buffers read, together,
+/// stays within the read limit (a quarter of `--max-memory`; here 16 MiB), naming the
+/// buffer that would pass it.
+#[test]
+fn buffers_read_a_file_once_and_together_within_the_limit() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let d = one_mesh(&p, [0.5; 3]);
+    let g = d.write(dir.path(), "m", Layout::External);
+    let mut bin = std::fs::read(dir.path().join("m.bin")).unwrap();
+    let n = bin.len();
+    bin.resize(6 << 20, 0);
+    std::fs::write(dir.path().join("m.bin"), &bin).unwrap();
+    for k in 0..3 {
+        std::fs::write(dir.path().join(format!("pad{k}.bin")), &bin).unwrap();
+    }
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&g).unwrap()).unwrap();
+    let source = Source::Dir(dir.path().to_path_buf());
+    let load = || meshrad::scene::gltf_file::load(&source, Path::new("m.gltf"), 16 << 20, None);
+    // 40 buffers naming m.bin: one read of 6 MiB, within 16 MiB.
+    json["buffers"] = json!((0..40)
+        .map(|_| json!({"uri": "m.bin", "byteLength": n}))
+        .collect::<Vec<_>>());
+    std::fs::write(&g, json.to_string()).unwrap();
+    load().unwrap();
+    // Three files of 6 MiB: 18 MiB together, over 16 MiB.
+    json["buffers"] = json!((0..3)
+        .map(|k| json!({"uri": format!("pad{k}.bin"), "byteLength": n}))
+        .collect::<Vec<_>>());
+    std::fs::write(&g, json.to_string()).unwrap();
+    let err = load().map(|_| ()).unwrap_err().to_string();
+    assert!(err.contains("buffers[2]") && err.contains("pad2.bin"), "{err}");
+}

@@ -903,3 +903,39 @@ fn a_box_around_the_scene_is_named_when_everything_is_black() {
     let (code, err) = Dir::default_scene().solve(&[]);
     assert!(code == 0 && !err.contains("warning"), "{err}");
 }
+
+/// Issue #35: a small image file that decodes to many pixels is sized from its header and
+/// refused within `--max-memory`, naming the texture, before it is decoded.
+#[test]
+fn a_texture_that_would_decode_beyond_the_memory_limit_is_refused_first() {
+    let d = Dir::new(
+        &default_toml(),
+        &OBJ.replace(
+            "f 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3",
+            "vt 0 0\nvt 1 0\nvt 0 1\nf 1/1 2/2 3/3\nf 1/1 3/3 4/2\nf 1/1 4/3 2/2\nf 2/1 4/2 3/3",
+        ),
+        "newmtl a\nKd 0.5 0.5 0.5\nmap_Kd big.png\n",
+    );
+    image::GrayImage::from_pixel(6000, 6000, image::Luma([100]))
+        .save(d.path("big.png"))
+        .unwrap();
+    assert!(std::fs::metadata(d.path("big.png")).unwrap().len() < 2 << 20);
+    let err = d.fails(
+        &[
+            "solve",
+            "s.toml",
+            "--out",
+            "o",
+            "-q",
+            "--backend",
+            "cpu",
+            "--max-memory",
+            "100M",
+        ],
+        &["big.png", "6000×6000", "--max-memory"],
+    );
+    assert!(err.contains("texture"), "{err}");
+    // Within the limit it loads.
+    let (c, e) = d.solve(&["--max-memory", "4G"]);
+    assert_eq!(c, 0, "{e}");
+}

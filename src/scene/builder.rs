@@ -293,13 +293,37 @@ impl Builder {
                     let k = match texture_paths.iter().position(|p| *p == (t.clone(), m.wrap)) {
                         Some(k) => k as u32,
                         None => {
-                            let (w, h, px) = match &m.texture_data {
-                                Some(bytes) => texture::decode(bytes, &source.display(t))?,
+                            let shown = source.display(t);
+                            let read;
+                            let bytes: &[u8] = match &m.texture_data {
+                                Some(b) => b,
                                 None => {
-                                    self.report.inputs.push(source.display(t));
-                                    texture::load(source, t)?
+                                    self.report.inputs.push(shown.clone());
+                                    read = source.read(t)?;
+                                    &read
                                 }
                             };
+                            // Sized from the header before decoding (a small PNG can
+                            // decode to gigabytes): the textures kept so far and this
+                            // one's decoding within the memory limit.
+                            if let Some((w, h)) = texture::dimensions(bytes) {
+                                let px = w as f64 * h as f64;
+                                self.limits.check(
+                                    &shown,
+                                    "texture",
+                                    &[
+                                        Part {
+                                            what: format!("{} earlier texels", texels.len()),
+                                            bytes: (texels.len() as u64 * texture::KEPT_BYTES_PER_PIXEL) as f64,
+                                        },
+                                        Part {
+                                            what: format!("decoding its {w}×{h} pixels"),
+                                            bytes: px * texture::DECODE_BYTES_PER_PIXEL as f64,
+                                        },
+                                    ],
+                                )?;
+                            }
+                            let (w, h, px) = texture::decode(bytes, &shown)?;
                             let info = TextureInfo {
                                 offset: texels.len() as u32,
                                 width: w,

@@ -204,6 +204,10 @@ impl Input<'_> {
     fn buffers(&self, file: &::gltf::Gltf, inputs: &mut Vec<PathBuf>) -> Result<Vec<Arc<[u8]>>> {
         let err = |message: String| self.err(message);
         let mut buffers: Vec<Arc<[u8]>> = Vec::new();
+        // A file that several buffers name is read once; what is read, together, stays
+        // within the read limit.
+        let mut read: std::collections::HashMap<String, Arc<[u8]>> = std::collections::HashMap::new();
+        let mut total = 0u64;
         for b in file.document.buffers() {
             let at = format!("buffers[{}]", b.index());
             let data: Arc<[u8]> = match b.source() {
@@ -215,9 +219,16 @@ impl Input<'_> {
                         )))
                     }
                 },
-                ::gltf::buffer::Source::Uri(uri) => {
-                    read_uri(self.source, &self.dir, uri, self.limit, inputs).map_err(|m| err(format!("{at}: {m}")))?
-                }
+                ::gltf::buffer::Source::Uri(uri) => match read.get(uri) {
+                    Some(d) => d.clone(),
+                    None => {
+                        let d = read_uri(self.source, &self.dir, uri, self.limit.saturating_sub(total), inputs)
+                            .map_err(|m| err(format!("{at}: {m}")))?;
+                        total += d.len() as u64;
+                        read.insert(uri.to_string(), d.clone());
+                        d
+                    }
+                },
             };
             if data.len() < b.length() {
                 return Err(err(format!(

@@ -29,6 +29,22 @@ pub fn load(source: &Source, rel: &Path) -> Result<(u32, u32, Vec<u32>)> {
     decode(&source.read(rel)?, &source.display(rel))
 }
 
+/// Bytes a texture of `w × h` pixels takes while it is decoded: the decoder's image (up to
+/// 16 bytes a pixel, RGBA f32), its RGBA8 copy and the packed texels (4 bytes each).
+pub const DECODE_BYTES_PER_PIXEL: u64 = 24;
+/// Bytes a decoded texture keeps for the run, per pixel.
+pub const KEPT_BYTES_PER_PIXEL: u64 = 4;
+
+/// An image file's width and height from its header alone, without decoding it (`None`
+/// where the header cannot be read: decoding then names the error).
+pub fn dimensions(bytes: &[u8]) -> Option<(u32, u32)> {
+    image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .ok()?
+        .into_dimensions()
+        .ok()
+}
+
 /// Decodes an image file's bytes (`shown` names it in errors) as packed RGBA8 texels.
 pub fn decode(bytes: &[u8], shown: &Path) -> Result<(u32, u32, Vec<u32>)> {
     let img = image::load_from_memory(bytes).map_err(|e| Error::Texture {
