@@ -460,6 +460,20 @@ fn bad_gltf_names_the_file_and_the_json_path() {
         std::fs::write(&g, text).unwrap();
     };
     gltf_fails_with(&doc, Layout::External, up, &["m.gltf", "buffers[0]", "no `..`"]);
+    // Issue #35: a vertex (or node scales) beyond what f32 areas hold is named, not dropped
+    // as a degenerate triangle.
+    let mut t = tetra();
+    t[0] = 3e38;
+    let doc = one_mesh(&t, [0.5; 3]);
+    gltf_fails_with(
+        &doc,
+        Layout::External,
+        ok,
+        &["m.gltf", "POSITION", "element 0", "overflow"],
+    );
+    let mut doc = one_mesh(&tetra(), [0.5; 3]);
+    doc.json["nodes"][0]["scale"] = json!([1e30, 1e30, 1e30]);
+    gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "POSITION", "nodes' transforms"]);
     // Issue #35: an emissive strength whose product would overflow the light's sums.
     let mut doc = one_mesh(&tetra(), [0.5; 3]);
     doc.json["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);

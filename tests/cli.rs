@@ -331,3 +331,56 @@ fn gpu_backend_from_the_command_line() {
     assert!(!o.status.success());
     assert!(String::from_utf8_lossy(&o.stderr).contains("no-such-device"));
 }
+
+/// Issue #33: the image's gather where the basis is doubted. A sample never doubted reads
+/// the basis bit for bit (the support is counted in the read's own pass); one always
+/// doubted is the per-sample final gather of as many rays (`final_gather_pixels`) bit for
+/// bit; the counts say which.
+#[test]
+fn doubted_samples_gather_and_the_others_read_the_basis_bit_for_bit() {
+    let scene_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell_box.toml");
+    let small = [
+        ("levels", "4"),
+        ("coarsest", "100"),
+        ("sender_level", "3"),
+        ("bounces", "2"),
+        ("rays", "64"),
+    ];
+    let (mut scene, params) = common::load(&scene_path, &small);
+    scene.camera.width = 24;
+    scene.camera.height = 24;
+    scene.camera.spp = 2;
+    let (h, sol) = common::solve_cpu(&scene, &params);
+    let render = |f: &dyn Fn(&mut meshrad::SolverParams)| {
+        let mut p = params.clone();
+        f(&mut p);
+        meshrad::output::image::render(&scene, &h, &sol, &p, &meshrad::progress::Progress::hidden())
+    };
+    let bits = |v: &[glam::Vec3]| {
+        v.iter()
+            .flat_map(|p| p.to_array())
+            .map(f32::to_bits)
+            .collect::<Vec<_>>()
+    };
+    let basis = render(&|p| p.doubt_gather = 0);
+    let never = render(&|p| {
+        p.doubt_gather = 16;
+        p.doubt_nodes = 0;
+        p.doubt_spread = 1e6;
+    });
+    assert_eq!(bits(&never.indirect), bits(&basis.indirect));
+    // Samples whose primary ray hits (the others see the background).
+    let hits = never.basis_samples;
+    assert!(never.doubted_samples == 0 && hits > 24 * 24, "{hits}");
+    let always = render(&|p| {
+        p.doubt_gather = 16;
+        p.doubt_nodes = 1 << 10;
+    });
+    let gathered = render(&|p| p.final_gather_pixels = 16);
+    assert_eq!(bits(&always.indirect), bits(&gathered.indirect));
+    assert_eq!((always.doubted_samples, always.basis_samples), (hits, 0));
+    // The default lies between: some samples doubted, not all.
+    let default = render(&|_| {});
+    assert_eq!(default.basis_samples + default.doubted_samples, hits);
+    assert!(default.basis_samples > 0, "{}", default.doubted_samples);
+}

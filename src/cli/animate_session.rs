@@ -147,7 +147,12 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         editor::apply(&mut check, f, &format!("{}: frame {k}", a.frames.display()))?;
     }
     drop(check);
-    let points = a.points.as_deref().map(probe::read).transpose()?;
+    let limits = a.solver.limits()?;
+    let points = a
+        .points
+        .as_deref()
+        .map(|p| probe::read_within(p, &limits))
+        .transpose()?;
     let mut inputs = scene.report.inputs.clone();
     inputs.push(a.frames.clone());
     inputs.extend(a.points.clone());

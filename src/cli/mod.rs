@@ -587,7 +587,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
 
 fn probe_cmd(a: ProbeArgs) -> Result<()> {
     let progress = Progress::new(a.solver.quiet);
-    let probes = probe::read(&a.points)?;
+    let probes = probe::read_within(&a.points, &a.solver.limits()?)?;
     let (scene, params) = load_scene(Some(&a.scene), &a.solver)?;
     report_load(&scene, a.solver.quiet);
     if let Some(p) = &a.out {

@@ -76,8 +76,30 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
 
 /// Reads and parses a points file.
 pub fn read(path: &Path) -> Result<Vec<Probe>> {
-    let text = crate::limits::read_text(path, crate::limits::MAX_TEXT_BYTES)?;
-    parse(path, &text)
+    read_within(path, &crate::limits::Limits::default())
+}
+
+/// Bytes a probe point takes while a command runs: the point and normal, its values and
+/// standard errors, and its CSV line (21 numbers).
+pub const BYTES_PER_PROBE: u64 = 400;
+
+/// [`read`] within `limits`: the file at most a quarter of the memory limit (and
+/// `MAX_TEXT_BYTES`), and its points, with their values and CSV, within the limit; else
+/// an error naming the file with the estimate.
+pub fn read_within(path: &Path, limits: &crate::limits::Limits) -> Result<Vec<Probe>> {
+    let cap = crate::limits::MAX_TEXT_BYTES.min(limits.max_memory / 4).max(1 << 16);
+    let text = crate::limits::read_text(path, cap)?;
+    let points = parse(path, &text)?;
+    drop(text);
+    limits.check(
+        path,
+        "--points",
+        &[crate::limits::Part {
+            what: format!("{} probe points, their values and CSV", points.len()),
+            bytes: (points.len() as u64 * BYTES_PER_PROBE) as f64,
+        }],
+    )?;
+    Ok(points)
 }
 
 /// A probe's values.

@@ -36,6 +36,10 @@ use crate::layout::{Tri, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
 /// efficacy of 555 nm light).
 pub const LUMENS_PER_WATT: f32 = 683.0;
 
+/// The largest coordinate a placed glTF vertex may have (a triangle's area, the square of
+/// its edges, stays finite in f32).
+const MAX_COORDINATE: f32 = 1e18;
+
 /// Node trees deeper than this are refused (a cycle, or a file built to exhaust the stack).
 const MAX_DEPTH: usize = 256;
 
@@ -692,6 +696,23 @@ impl Walk<'_> {
             let i = i as usize * 3;
             m.transform_point3(Vec3::new(pos[i], pos[i + 1], pos[i + 2])).to_array()
         };
+        // A vertex placed beyond 1e18 (a huge coordinate, or node scales that multiply to
+        // one) would overflow the triangles' areas and normals in f32 and be dropped as
+        // degenerate: name it instead.
+        for i in 0..(pos.len() / 3) as u32 {
+            let v = Vec3::from(place(i));
+            if v.is_nan() || v.abs().max_element() > MAX_COORDINATE {
+                let k = i as usize * 3;
+                return Err(format!(
+                    "{at}.attributes.POSITION (accessor {}): element {i} ({}, {}, {}) is placed at {v} by its nodes' \
+                     transforms, beyond ±{MAX_COORDINATE:e}, where areas and normals overflow in single precision",
+                    pos_acc.index(),
+                    pos[k],
+                    pos[k + 1],
+                    pos[k + 2]
+                ));
+            }
+        }
         for c in corners {
             let c = if flip { [c[0], c[2], c[1]] } else { c };
             let tri = Tri {
