@@ -976,3 +976,20 @@ fn too_many_probe_points_are_refused_with_the_estimate() {
     assert_eq!(code, 0, "{err}");
     assert_eq!(out.lines().count(), 101);
 }
+
+/// Issue #35: the Cornell box scaled by 1e-20 gave inf pixels with exit 0 (a point light's
+/// irradiance grows as 1/distance²); now the run fails naming the scene and its size.
+#[test]
+fn values_that_overflow_are_an_error_not_inf_pixels() {
+    let mesh = format!("{}/scenes/cornell_original_mm.obj", env!("CARGO_MANIFEST_DIR"));
+    let toml = format!(
+        "[[object]]\nmesh = \"{mesh}\"\nemission = false\nscale = 1e-20\n\n\
+         [[light]]\ntype = \"point\"\nposition = [278.0e-20, 548.0e-20, 279.6e-20]\nintensity = [1.0, 1.0, 1.0]\n\n\
+         [camera]\nposition = [278.0e-20, 273.0e-20, -800.0e-20]\ntarget = [278.0e-20, 273.0e-20, -799.0e-20]\n\
+         fov = 39.3\nwidth = 32\nheight = 32\n\n\
+         [solver]\nlevels = 3\ncoarsest = 50\nrays = 32\nbounces = 2\nsender_level = 2\n"
+    );
+    let d = with_toml(&toml);
+    d.solve_fails(&["s.toml", "overflowed single precision", "across"]);
+    assert!(!d.path("o/total.exr").exists(), "no output is written");
+}

@@ -458,6 +458,26 @@ fn report_load(scene: &Scene, quiet: bool) {
     }
 }
 
+/// No inf or NaN reaches an output with exit 0 (issue #35): values that overflowed f32
+/// (a scene a few 1e-17 across, whose lights' irradiance grows as 1/distance²) are an
+/// error naming the scene and its size.
+fn check_finite(scene: &Scene, what: &str, values: impl IntoIterator<Item = glam::Vec3>) -> Result<()> {
+    if values.into_iter().all(|v| v.is_finite()) {
+        return Ok(());
+    }
+    Err(crate::error::Error::SceneValue {
+        path: scene.path.clone(),
+        key: "object".into(),
+        message: format!(
+            "the {what} overflowed single precision (inf or NaN): the geometry is {:.3e} across, and light from a \
+             source grows as 1/distance²; scale the scene (an object's `scale`) or the lights' power into a \
+             range f32 holds",
+            scene.scale
+        ),
+    }
+    .into())
+}
+
 /// Warnings of the solve that change what the outputs mean.
 fn report_solve(sol: &Solution, quiet: bool) {
     if quiet {
@@ -531,7 +551,17 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
     progress.stage("images");
+    check_finite(
+        &scene,
+        "node values",
+        sol.values
+            .direct
+            .iter()
+            .chain(&sol.values.indirect)
+            .map(|v| v.truncate()),
+    )?;
     let img = image::render(&scene, h, sol, &params, &progress);
+    check_finite(&scene, "image", img.direct.iter().chain(&img.indirect).copied())?;
     let dark = output::dark::warnings(&scene, h, sol, Some(&img));
     let mut files = output::Outputs::default();
     let exposure = image::encode_all(&a.out, &img, a.image.exposure.unwrap_or_default(), &mut files)?;
@@ -601,6 +631,13 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
         eprintln!("warning: {w}");
     }
     let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);
+    check_finite(
+        &scene,
+        "probe values",
+        values
+            .iter()
+            .flat_map(|v| [v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err]),
+    )?;
     let text = probe::csv(&probes, &values);
     progress.finish();
     match &a.out {
