@@ -992,4 +992,21 @@ fn values_that_overflow_are_an_error_not_inf_pixels() {
     let d = with_toml(&toml);
     d.solve_fails(&["s.toml", "overflowed single precision", "across"]);
     assert!(!d.path("o/total.exr").exists(), "no output is written");
+    // An `animate` frame the same way.
+    d.write("f.toml", "[[frame]]\n");
+    d.fails(
+        &[
+            "animate",
+            "s.toml",
+            "--frames",
+            "f.toml",
+            "--out",
+            "a",
+            "-q",
+            "--backend",
+            "cpu",
+        ],
+        &["s.toml", "overflowed single precision"],
+    );
+    assert!(!d.path("a/0000/total.exr").exists(), "no frame is written");
 }

@@ -95,10 +95,18 @@ fn frame_outputs(
     let t = Instant::now();
     let (scene, h, params, sol) = (&ed.scene, &ed.hierarchy, &ed.params, &f.solution);
     let img = image::render(scene, h, sol, params, progress);
+    super::check_finite(scene, "image", img.direct.iter().chain(&img.indirect).copied())?;
     let mut files = output::Outputs::default();
     let exposure = image::encode_all(dir, &img, exposure, &mut files)?;
     if let Some(points) = points {
         let values = probe::evaluate(scene, h, sol, points, params);
+        super::check_finite(
+            scene,
+            "probe values",
+            values
+                .iter()
+                .flat_map(|v| [v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err]),
+        )?;
         files.add(dir.join("probe.csv"), probe::csv(points, &values).into_bytes());
     }
     let outputs = t.elapsed().as_secs_f64();
@@ -324,6 +332,13 @@ impl Session {
                     &points,
                     &self.ed.params,
                 );
+                super::check_finite(
+                    &self.ed.scene,
+                    "probe values",
+                    values
+                        .iter()
+                        .flat_map(|v| [v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err]),
+                )?;
                 let out: Vec<Value> = values
                     .iter()
                     .map(|v| {

@@ -461,7 +461,7 @@ fn report_load(scene: &Scene, quiet: bool) {
 /// No inf or NaN reaches an output with exit 0 (issue #35): values that overflowed f32
 /// (a scene a few 1e-17 across, whose lights' irradiance grows as 1/distance²) are an
 /// error naming the scene and its size.
-fn check_finite(scene: &Scene, what: &str, values: impl IntoIterator<Item = glam::Vec3>) -> Result<()> {
+pub(super) fn check_finite(scene: &Scene, what: &str, values: impl IntoIterator<Item = glam::Vec3>) -> Result<()> {
     if values.into_iter().all(|v| v.is_finite()) {
         return Ok(());
     }
