@@ -946,23 +946,7 @@ fn a_texture_that_would_decode_beyond_the_memory_limit_is_refused_first() {
 fn too_many_probe_points_are_refused_with_the_estimate() {
     let d = Dir::default_scene();
     let line = "0.2 0.2 0.0 0 0 1\n";
-    d.write("p.txt", &line.repeat(200_000));
-    d.fails(
-        &[
-            "probe",
-            "s.toml",
-            "--points",
-            "p.txt",
-            "--backend",
-            "cpu",
-            "-q",
-            "--max-memory",
-            "64M",
-        ],
-        &["p.txt", "200000 probe points", "--max-memory"],
-    );
-    d.write("p.txt", &line.repeat(100));
-    let (code, err, out) = d.run(&[
+    let args = [
         "probe",
         "s.toml",
         "--points",
@@ -972,7 +956,11 @@ fn too_many_probe_points_are_refused_with_the_estimate() {
         "-q",
         "--max-memory",
         "64M",
-    ]);
+    ];
+    d.write("p.txt", &line.repeat(200_000));
+    d.fails(&args, &["p.txt", "200000 probe points", "--max-memory"]);
+    d.write("p.txt", &line.repeat(100));
+    let (code, err, out) = d.run(&args);
     assert_eq!(code, 0, "{err}");
     assert_eq!(out.lines().count(), 101);
 }

@@ -103,9 +103,7 @@ fn frame_outputs(
         super::check_finite(
             scene,
             "probe values",
-            values
-                .iter()
-                .flat_map(|v| [v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err]),
+            values.iter().flat_map(probe::ProbeValue::vectors),
         )?;
         files.add(dir.join("probe.csv"), probe::csv(points, &values).into_bytes());
     }
@@ -335,9 +333,7 @@ impl Session {
                 super::check_finite(
                     &self.ed.scene,
                     "probe values",
-                    values
-                        .iter()
-                        .flat_map(|v| [v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err]),
+                    values.iter().flat_map(probe::ProbeValue::vectors),
                 )?;
                 let out: Vec<Value> = values
                     .iter()

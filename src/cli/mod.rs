@@ -634,9 +634,7 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     check_finite(
         &scene,
         "probe values",
-        values
-            .iter()
-            .flat_map(|v| [v.direct, v.direct_se, v.indirect.mean, v.indirect.std_err]),
+        values.iter().flat_map(probe::ProbeValue::vectors),
     )?;
     let text = probe::csv(&probes, &values);
     progress.finish();

@@ -111,6 +111,13 @@ pub struct ProbeValue {
     pub indirect: Read,
 }
 
+impl ProbeValue {
+    /// Every vector it holds: direct, its standard error, indirect, its standard error.
+    pub fn vectors(&self) -> [Vec3; 4] {
+        [self.direct, self.direct_se, self.indirect.mean, self.indirect.std_err]
+    }
+}
+
 /// Direct (exact for lights, sampled for emitting surfaces, with its standard error) and
 /// indirect (read as `params` ask: the basis on the output level, clamped at zero, or a
 /// final gather with its standard error) irradiance at each probe.
