@@ -6,7 +6,6 @@ use std::path::Path;
 
 use glam::{Vec2, Vec3};
 
-use super::source::Source;
 use crate::error::{Error, Result};
 use crate::layout::{TextureInfo, WRAP_CLAMP, WRAP_MIRROR, WRAP_REPEAT};
 
@@ -22,11 +21,6 @@ pub fn srgb_table() -> [f32; 256] {
         } as f32;
     }
     t
-}
-
-/// Loads an image as packed RGBA8 texels; returns (width, height, texels).
-pub fn load(source: &Source, rel: &Path) -> Result<(u32, u32, Vec<u32>)> {
-    decode(&source.read(rel)?, &source.display(rel))
 }
 
 /// Bytes a texture of `w × h` pixels takes while it is decoded: the decoder's image (up to
