@@ -209,7 +209,7 @@ pub struct Changed {
 }
 
 impl Changed {
-    fn merge(&mut self, o: Changed) {
+    pub fn merge(&mut self, o: Changed) {
         for n in o.objects {
             if !self.objects.contains(&n) {
                 self.objects.push(n);

@@ -23,6 +23,8 @@ pub mod metrics;
 pub mod output;
 pub mod params;
 pub mod progress;
+#[cfg(feature = "python")]
+mod python;
 pub mod reference;
 pub mod run;
 pub mod scene;

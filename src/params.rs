@@ -272,6 +272,15 @@ impl SolverParams {
     }
 
     /// Which sides get nodes (unset: from the lights).
+    /// Whether a scene loaded with these parameters is the scene loaded with `other`: the
+    /// loader reads `max_albedo` (albedos above it are lowered) and `emitter_samples` and
+    /// `final_gather` (the emitters' sample set), in `scene::builder::Builder::finish`.
+    pub fn loads_as(&self, other: &SolverParams) -> bool {
+        self.max_albedo == other.max_albedo
+            && self.emitter_samples == other.emitter_samples
+            && self.final_gather == other.final_gather
+    }
+
     pub fn reach(&self) -> Reach {
         self.reach.unwrap_or(Reach::Lights)
     }

@@ -1,17 +1,28 @@
 //! Progress on stderr: a spinner naming the current stage and bars for long loops, drawn
 //! only on a terminal and only once a loop has run for a second; `--quiet` hides all.
+//! A library caller (the Python module) may instead pass a [`Hook`] that is told each
+//! stage and, at most every [`HOOK_INTERVAL_MS`] per bar, each bar's position.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+
+/// A progress callback: `(stage, done, total)`; a stage that begins has `total` 0, a bar
+/// that advances `done` of `total` steps. Called from any thread.
+pub type Hook = Arc<dyn Fn(&str, u64, u64) + Send + Sync>;
+
+/// The shortest interval between two calls of a [`Hook`] for one bar (its last step is
+/// always reported).
+pub const HOOK_INTERVAL_MS: u64 = 100;
 
 /// The progress reporter of one command.
 #[derive(Clone)]
 pub struct Progress {
     quiet: bool,
     spinner: Option<ProgressBar>,
+    hook: Option<Hook>,
 }
 
 impl Progress {
@@ -23,7 +34,11 @@ impl Progress {
             s.enable_steady_tick(Duration::from_millis(120));
             s
         });
-        Progress { quiet, spinner }
+        Progress {
+            quiet,
+            spinner,
+            hook: None,
+        }
     }
 
     /// A reporter that shows nothing (library use, tests).
@@ -31,6 +46,16 @@ impl Progress {
         Progress {
             quiet: true,
             spinner: None,
+            hook: None,
+        }
+    }
+
+    /// A reporter that draws nothing and tells `hook` instead.
+    pub fn with_hook(hook: Hook) -> Self {
+        Progress {
+            quiet: true,
+            spinner: None,
+            hook: Some(hook),
         }
     }
 
@@ -38,6 +63,9 @@ impl Progress {
     pub fn stage(&self, msg: &str) {
         if let Some(s) = &self.spinner {
             s.set_message(msg.to_string());
+        }
+        if let Some(h) = &self.hook {
+            h(msg, 0, 0);
         }
     }
 
@@ -54,6 +82,15 @@ impl Progress {
             pb,
             start: Instant::now(),
             shown: Arc::new(AtomicBool::new(self.quiet)),
+            hook: self.hook.clone().map(|h| {
+                Arc::new(BarHook {
+                    hook: h,
+                    msg: msg.to_string(),
+                    len,
+                    done: AtomicU64::new(0),
+                    last_ms: AtomicU64::new(0),
+                })
+            }),
         }
     }
 
@@ -65,17 +102,40 @@ impl Progress {
     }
 }
 
+/// A bar's [`Hook`]: its steps done and when it was last told (ms after the start).
+struct BarHook {
+    hook: Hook,
+    msg: String,
+    len: u64,
+    done: AtomicU64,
+    last_ms: AtomicU64,
+}
+
 /// A progress bar (cheap to clone, safe to advance from many threads).
 #[derive(Clone)]
 pub struct Bar {
     pb: ProgressBar,
     start: Instant,
     shown: Arc<AtomicBool>,
+    hook: Option<Arc<BarHook>>,
 }
 
 impl Bar {
     pub fn inc(&self, n: u64) {
         self.pb.inc(n);
+        if let Some(h) = &self.hook {
+            let done = h.done.fetch_add(n, Ordering::Relaxed) + n;
+            let now = self.start.elapsed().as_millis() as u64;
+            let last = h.last_ms.load(Ordering::Relaxed);
+            // One thread wins each interval; the last step is always told.
+            let due = now >= last + HOOK_INTERVAL_MS
+                && h.last_ms
+                    .compare_exchange(last, now, Ordering::Relaxed, Ordering::Relaxed)
+                    .is_ok();
+            if due || done == h.len {
+                (h.hook)(&h.msg, done, h.len);
+            }
+        }
         if !self.shown.load(Ordering::Relaxed) && self.start.elapsed() > Duration::from_secs(1) {
             self.shown.store(true, Ordering::Relaxed);
             self.pb.set_draw_target(ProgressDrawTarget::stderr());

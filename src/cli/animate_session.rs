@@ -11,7 +11,7 @@ use glam::Vec3;
 use serde::Serialize;
 use serde_json::{json, Value};
 
-use super::{load_scene, report_load, ImageArgs, ImageSummary, PhaseSeconds, RunStats, SceneSummary, SolverArgs};
+use super::{load_scene, report_load, ImageArgs, ImageSummary, PhaseSeconds, RunStats, SolverArgs};
 use crate::editor::{self, Changed, Edit, Editor, Frame, FrameSeconds};
 use crate::output::{self, image, probe};
 use crate::progress::Progress;
@@ -113,24 +113,19 @@ fn frame_outputs(
         frame: k,
         changed: &f.changed,
         seconds_frame: times.clone(),
-        run: RunStats {
-            scene: SceneSummary::of(scene),
-            backend: sol.stats.backend.clone(),
-            variant: sol.variant.name(),
-            seed: params.seed,
+        run: RunStats::new(
+            scene,
             params,
-            hierarchy: &h.stats,
-            solve: &sol.stats,
-            gpu: f.gpu.as_ref(),
-            image: ImageSummary::of(&img, scene, params, exposure),
-            seconds: PhaseSeconds {
+            (&h.stats, sol, f.gpu.as_ref()),
+            ImageSummary::of(&img, scene, params, exposure),
+            PhaseSeconds {
                 load: 0.0,
                 hierarchy: f.seconds.update,
                 solve: f.seconds.solve - f.seconds.update,
                 output: outputs,
                 total: times.total,
             },
-        },
+        ),
     };
     let p = dir.join("stats.json");
     files.add(&p, output::json_bytes(&p, &stats)?);

@@ -5,6 +5,8 @@ mod animate_session;
 mod bench;
 mod reference;
 
+pub use reference::{check_work as check_reference_work, MAX_SAMPLES as MAX_REFERENCE_SAMPLES};
+
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
@@ -265,15 +267,21 @@ impl From<VariantArg> for Variant {
 impl SolverArgs {
     /// The resource limits these flags set.
     pub fn limits(&self) -> Result<Limits> {
-        let mut l = Limits::default();
-        if let Ok(m) = std::env::var("MESHRAD_MAX_MEMORY") {
-            l.max_memory = crate::limits::parse_bytes(&m).map_err(|e| anyhow::anyhow!("MESHRAD_MAX_MEMORY: {e}"))?;
-        }
-        if let Some(m) = &self.max_memory {
-            l.max_memory = crate::limits::parse_bytes(m).map_err(|e| anyhow::anyhow!("--max-memory: {e}"))?;
-        }
-        Ok(l)
+        limits_from(self.max_memory.as_deref(), "--max-memory")
     }
+}
+
+/// The resource limits: `max_memory` (`flag` names it in errors), else
+/// `MESHRAD_MAX_MEMORY`, else half of the machine's memory.
+pub fn limits_from(max_memory: Option<&str>, flag: &str) -> Result<Limits> {
+    let mut l = Limits::default();
+    if let Ok(m) = std::env::var("MESHRAD_MAX_MEMORY") {
+        l.max_memory = crate::limits::parse_bytes(&m).map_err(|e| anyhow::anyhow!("MESHRAD_MAX_MEMORY: {e}"))?;
+    }
+    if let Some(m) = max_memory {
+        l.max_memory = crate::limits::parse_bytes(m).map_err(|e| anyhow::anyhow!("{flag}: {e}"))?;
+    }
+    Ok(l)
 }
 
 /// Loads a scene (or the embedded Cornell box) with the flags' overrides and limits.
@@ -309,6 +317,31 @@ pub struct RunStats<'a> {
     pub gpu: Option<&'a GpuReport>,
     pub image: ImageSummary,
     pub seconds: PhaseSeconds,
+}
+
+impl<'a> RunStats<'a> {
+    /// The stats.json of a solve of `scene` with `params` and its images.
+    pub fn new(
+        scene: &Scene,
+        params: &'a SolverParams,
+        run: (&'a HierarchyStats, &'a Solution, Option<&'a GpuReport>),
+        image: ImageSummary,
+        seconds: PhaseSeconds,
+    ) -> Self {
+        let (hierarchy, sol, gpu) = run;
+        RunStats {
+            scene: SceneSummary::of(scene),
+            backend: sol.stats.backend.clone(),
+            variant: sol.variant.name(),
+            seed: params.seed,
+            params,
+            hierarchy,
+            solve: &sol.stats,
+            gpu,
+            image,
+            seconds,
+        }
+    }
 }
 
 /// The rendered images.
@@ -461,7 +494,7 @@ fn report_load(scene: &Scene, quiet: bool) {
 /// No inf or NaN reaches an output with exit 0 (issue #35): values that overflowed f32
 /// (a scene a few 1e-17 across, whose lights' irradiance grows as 1/distance²) are an
 /// error naming the scene and its size.
-pub(super) fn check_finite(scene: &Scene, what: &str, values: impl IntoIterator<Item = glam::Vec3>) -> Result<()> {
+pub(crate) fn check_finite(scene: &Scene, what: &str, values: impl IntoIterator<Item = glam::Vec3>) -> Result<()> {
     if values.into_iter().all(|v| v.is_finite()) {
         return Ok(());
     }
@@ -483,12 +516,15 @@ fn report_solve(sol: &Solution, quiet: bool) {
     if quiet {
         return;
     }
-    for s in sol.stats.skipped.iter().filter(|s| s.starts_with("light ")) {
+    for s in solve_warnings(sol) {
         eprintln!("warning: {s}");
     }
-    if let Some(s) = &sol.stats.unconverged {
-        eprintln!("warning: {s}");
-    }
+}
+
+/// The solve's warnings: lights skipped, bounces that did not converge.
+pub(crate) fn solve_warnings(sol: &Solution) -> Vec<String> {
+    let skipped = sol.stats.skipped.iter().filter(|s| s.starts_with("light "));
+    skipped.chain(&sol.stats.unconverged).cloned().collect()
 }
 
 fn print_stats(h: &Hierarchy, sol: &Solution, sec: &PhaseSeconds) {
@@ -579,21 +615,16 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     if a.solver.stats {
         print_stats(h, sol, &seconds);
     }
-    let stats = RunStats {
-        scene: SceneSummary::of(&scene),
-        backend: sol.stats.backend.clone(),
-        variant: sol.variant.name(),
-        seed: params.seed,
-        params: &params,
-        hierarchy: &h.stats,
-        solve: &sol.stats,
-        gpu: run.gpu.as_ref(),
-        image: ImageSummary {
+    let stats = RunStats::new(
+        &scene,
+        &params,
+        (&h.stats, sol, run.gpu.as_ref()),
+        ImageSummary {
             warnings: dark.clone(),
             ..ImageSummary::of(&img, &scene, &params, exposure)
         },
         seconds,
-    };
+    );
     let stats_path = a.out.join("stats.json");
     files.add(&stats_path, output::json_bytes(&stats_path, &stats)?);
     files.commit()?;

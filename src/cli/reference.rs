@@ -47,7 +47,7 @@ pub const MAX_SAMPLES: u32 = 1 << 24;
 pub const MAX_PATHS: u64 = 1 << 37;
 
 /// Refuses a run of more than [`MAX_PATHS`] paths, with the estimate.
-fn check_work(count: u64, samples: u32, what: &str) -> Result<()> {
+pub fn check_work(count: u64, samples: u32, what: &str) -> Result<()> {
     let paths = count * samples as u64;
     if paths > MAX_PATHS {
         anyhow::bail!(

@@ -27,6 +27,21 @@ pub struct Probe {
     pub n: Vec3,
 }
 
+/// A probe from `px py pz nx ny nz`: finite, the normal made unit (in double precision);
+/// else what is wrong. Every way points come in (a file, the Python module) goes through
+/// here, so the same numbers give the same probe.
+pub fn point(v: [f32; 6]) -> std::result::Result<Probe, &'static str> {
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err("values must be finite");
+    }
+    let n = glam::DVec3::new(v[3] as f64, v[4] as f64, v[5] as f64);
+    let n = crate::geom::unit_vector(n).ok_or("the normal has zero length")?;
+    Ok(Probe {
+        p: Vec3::new(v[0], v[1], v[2]),
+        n,
+    })
+}
+
 /// Parses a points file; errors name the line.
 pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
     let mut out = Vec::new();
@@ -46,23 +61,10 @@ pub fn parse(path: &Path, text: &str) -> Result<Vec<Probe>> {
             .filter(|s| !s.is_empty())
             .map(|s| s.parse::<f32>().map_err(|_| bad(format!("`{s}` is not a number"))))
             .collect::<Result<Vec<f32>>>()?;
-        if vals.len() != 6 {
-            return Err(bad(format!(
-                "expected 6 numbers (px py pz nx ny nz), found {}",
-                vals.len()
-            )));
-        }
-        if vals.iter().any(|v| !v.is_finite()) {
-            return Err(bad("values must be finite".into()));
-        }
-        let n = glam::DVec3::new(vals[3] as f64, vals[4] as f64, vals[5] as f64);
-        let Some(n) = crate::geom::unit_vector(n) else {
-            return Err(bad("the normal has zero length".into()));
-        };
-        out.push(Probe {
-            p: Vec3::new(vals[0], vals[1], vals[2]),
-            n,
-        });
+        let vals: [f32; 6] = vals
+            .try_into()
+            .map_err(|v: Vec<f32>| bad(format!("expected 6 numbers (px py pz nx ny nz), found {}", v.len())))?;
+        out.push(point(vals).map_err(|m| bad(m.into()))?);
     }
     if out.is_empty() {
         return Err(Error::Points {

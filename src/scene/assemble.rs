@@ -44,8 +44,18 @@ impl Scene {
         Scene::embedded_cornell_with(overrides, &Limits::default())
     }
 
-    /// A scene file embedded in the binary (`cornell_box.toml`, `cornell_parts.toml`).
+    /// A scene file embedded in the binary (`cornell_box.toml`, `cornell_parts.toml`,
+    /// `cornell_area.toml`).
     pub fn embedded_file(name: &str, overrides: &[(String, toml::Value)]) -> Result<(Scene, SolverParams)> {
+        Scene::embedded_file_with(name, overrides, &Limits::default())
+    }
+
+    /// [`Scene::embedded_file`] within `limits`.
+    pub fn embedded_file_with(
+        name: &str,
+        overrides: &[(String, toml::Value)],
+        limits: &Limits,
+    ) -> Result<(Scene, SolverParams)> {
         let src = Source::Embedded(source::EMBEDDED_CORNELL);
         let text = src.read(Path::new(name))?;
         Scene::from_toml_with(
@@ -53,7 +63,7 @@ impl Scene {
             &src.display(Path::new(name)),
             src,
             overrides,
-            &Limits::default(),
+            limits,
         )
     }
 
@@ -62,15 +72,7 @@ impl Scene {
         overrides: &[(String, toml::Value)],
         limits: &Limits,
     ) -> Result<(Scene, SolverParams)> {
-        let src = Source::Embedded(source::EMBEDDED_CORNELL);
-        let text = src.read(Path::new("cornell_box.toml"))?;
-        Scene::from_toml_with(
-            &String::from_utf8_lossy(&text),
-            &src.display(Path::new("cornell_box.toml")),
-            src,
-            overrides,
-            limits,
-        )
+        Scene::embedded_file_with("cornell_box.toml", overrides, limits)
     }
 
     /// Parses and loads a scene whose files come from `source`.

@@ -12,7 +12,7 @@ use crate::params::SolverParams;
 /// work: triangles, the hierarchy's candidates and nodes (their counts follow from
 /// `coarsest`, `levels`, `candidate_factor` and `max_candidates` alone), rays in flight
 /// and the image. Returns the estimate in bytes; the error blames the largest part.
-pub(super) fn plan_memory(
+pub(crate) fn plan_memory(
     limits: &Limits,
     path: &Path,
     triangles: usize,

@@ -20,7 +20,7 @@ pub mod texture;
 mod assemble;
 mod builder;
 mod direct;
-mod memory;
+pub(crate) mod memory;
 mod query;
 
 use std::path::PathBuf;

@@ -1,0 +1,16 @@
+#!/usr/bin/env bash
+# The README's test command: the Rust tests (`cargo test`), then the Python module's
+# (`pip install .` into a venv, then pytest against the CLI's outputs). CI runs it through
+# .ci/run. MESHRAD_VENV names the venv (default target/python-venv, made if missing).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+# shellcheck disable=SC1091
+[ -f "$HOME/.cargo/env" ] && . "$HOME/.cargo/env"
+cargo test
+# The Python tests compare the module with the CLI: the release binary (built already by
+# the README's first command, and then this compiles nothing).
+cargo build --release
+venv="${MESHRAD_VENV:-target/python-venv}"
+[ -x "$venv/bin/python" ] || python3 -m venv "$venv"
+"$venv/bin/python" -m pip install -q ".[test]"
+MESHRAD_BIN="$PWD/target/release/meshrad" "$venv/bin/python" -m pytest -q python/tests
