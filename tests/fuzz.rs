@@ -18,8 +18,9 @@
 //! one past `CASE_LIMIT`; its memory is bounded by `--max-memory`.
 //!
 //! `MESHRAD_FUZZ_SECONDS` (default 60) bounds the run, `MESHRAD_FUZZ_SEED` (default 1)
-//! picks the sequence, `MESHRAD_FUZZ_KINDS` (default all, e.g. `gltf,glb`) the kinds;
-//! failing cases go to `target/fuzz-failures/`. For a long run:
+//! picks the sequence, `MESHRAD_FUZZ_KINDS` (default all, e.g. `gltf,glb`) the kinds,
+//! `MESHRAD_FUZZ_BIN` the binary for session cases (default the one cargo built; a copy
+//! keeps a long run apart from rebuilds); failing cases go to `target/fuzz-failures/`. For a long run:
 //! `MESHRAD_FUZZ_SECONDS=3600 MESHRAD_FUZZ_SEED=$RANDOM cargo test --release --test fuzz -- --nocapture`.
 
 mod common;
@@ -902,7 +903,8 @@ fn run_session(dir: &Path) -> Outcome {
         .filter(|l| !is_render(l))
         .collect::<Vec<_>>()
         .join(&b'\n');
-    let mut child = Command::new(env!("CARGO_BIN_EXE_meshrad"))
+    let bin = std::env::var_os("MESHRAD_FUZZ_BIN").unwrap_or_else(|| env!("CARGO_BIN_EXE_meshrad").into());
+    let mut child = Command::new(bin)
         .args(["session", "s.toml", "--backend", "cpu", "--max-memory", "256M"])
         .current_dir(dir)
         .stdin(Stdio::piped())
