@@ -55,6 +55,15 @@ impl Default for Limits {
     }
 }
 
+/// This process's peak resident memory in bytes (`VmHWM` of `/proc/self/status`), where
+/// the system reports it.
+pub fn peak_resident() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib << 10)
+}
+
 /// Half of `MemTotal` from `/proc/meminfo`; 4 GiB where that cannot be read.
 pub fn default_max_memory() -> u64 {
     std::fs::read_to_string("/proc/meminfo")

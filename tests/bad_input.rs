@@ -1,9 +1,10 @@
-//! Bad input gets a clear error that names the input, a non-zero exit, and no panic.
+//! Bad input gets a clear error that names the input, a non-zero exit, and no panic; every
+//! run's peak memory is measured and held to its `--max-memory` plus a fixed slack
+//! ([`common::meshrad_bounded`]).
 
 mod common;
 
 use std::path::Path;
-use std::process::Command;
 
 const OBJ: &str = "mtllib m.mtl\nusemtl a\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 3 4\nf 1 4 2\nf 2 4 3\n";
 const MTL: &str = "newmtl a\nKd 0.5 0.5 0.5\n";
@@ -47,11 +48,7 @@ fn run_with(c: &Case, quiet: bool) -> (bool, String) {
         args.push("-q");
     }
     args.extend_from_slice(c.extra);
-    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-        .args(&args)
-        .current_dir(d)
-        .output()
-        .unwrap();
+    let o = common::meshrad_output(d, &args, b"");
     let err = String::from_utf8_lossy(&o.stderr).into_owned();
     assert!(!err.contains("panicked"), "panic: {err}");
     (o.status.success(), err)
@@ -73,10 +70,7 @@ fn a_good_case_passes() {
 
 #[test]
 fn missing_scene_file() {
-    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-        .args(["solve", "/nonexistent/scene.toml", "-q"])
-        .output()
-        .unwrap();
+    let o = common::meshrad_output(Path::new("."), &["solve", "/nonexistent/scene.toml", "-q"], b"");
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -259,11 +253,7 @@ fn bad_points_file_names_the_line() {
         ("# nothing\n", "no points"),
     ] {
         std::fs::write(d.join("p.txt"), text).unwrap();
-        let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-            .args(["probe", "s.toml", "--points", "p.txt", "-q"])
-            .current_dir(d)
-            .output()
-            .unwrap();
+        let o = common::meshrad_output(d, &["probe", "s.toml", "--points", "p.txt", "-q"], b"");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(
             !o.status.success() && err.contains(needle) && !err.contains("panicked"),
@@ -295,11 +285,7 @@ fn gltf_fails_with(doc: &common::gltf::Doc, layout: common::gltf::Layout, spoil:
         format!("[[object]]\nmesh = \"{name}\"\n\n{LIGHT}\n{FAST}"),
     )
     .unwrap();
-    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-        .args(["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"])
-        .current_dir(d)
-        .output()
-        .unwrap();
+    let o = common::meshrad_output(d, &["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"], b"");
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success(), "should fail: {needles:?}");
     assert!(!err.contains("panicked"), "panic: {err}");
@@ -333,11 +319,11 @@ fn bad_gltf_names_the_file_and_the_json_path() {
             format!("[[object]]\nmesh = \"m.gltf\"\n\n{LIGHT}\n{FAST}"),
         )
         .unwrap();
-        let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-            .args(["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"])
-            .current_dir(dir.path())
-            .output()
-            .unwrap();
+        let o = common::meshrad_output(
+            dir.path(),
+            &["solve", "s.toml", "--out", "o", "-q", "--backend", "cpu"],
+            b"",
+        );
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     }
     // Not JSON; a truncated .glb.

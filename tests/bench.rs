@@ -161,8 +161,9 @@ fn accuracy_quick() {
     assert!(cached.starts_with("# meshrad reference samples=2000 max_bounces=2"));
     // Issue #35: an `--only` label that matches nothing is an error listing the labels
     // (it ran nothing and exited 0), here on the cached references.
-    let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-        .args([
+    let o = common::meshrad_output(
+        dir.path(),
+        &[
             "bench",
             "accuracy",
             "cornell.toml",
@@ -178,10 +179,9 @@ fn accuracy_quick() {
             "-q",
             "--only",
             "approx rays=33",
-        ])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
+        ],
+        b"",
+    );
     let err = String::from_utf8_lossy(&o.stderr);
     assert_eq!(o.status.code(), Some(1), "{err}");
     assert!(

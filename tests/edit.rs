@@ -5,9 +5,7 @@
 
 mod common;
 
-use std::io::Write;
 use std::path::Path;
-use std::process::{Command, Stdio};
 use std::sync::Arc;
 
 use meshrad::bench::area_probes;
@@ -388,12 +386,9 @@ fn furnace_with_the_light_moved() {
     }
 }
 
+/// A bounded run: no panic, and the peak memory measured within `--max-memory` and a slack.
 fn meshrad(args: &[&str], cwd: &Path) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_meshrad"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("run meshrad")
+    common::meshrad_output(cwd, args, b"")
 }
 
 /// `animate` writes every frame's files; frame 1 of the file is the solve of the scene
@@ -536,14 +531,6 @@ fn session_answers_every_line_and_survives_bad_ones() {
     let dir = common::tmpdir();
     let d = dir.path();
     std::fs::write(d.join("scene.toml"), cornell("", SPOT, SMALL)).unwrap();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-        .args(["session", "scene.toml", "--backend", "cpu"])
-        .current_dir(d)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap();
     let lines = [
         r#"{"solve": {}}"#,
         r#"{"probe": [[278.0, 0.0, 279.6, 0.0, 1.0, 0.0]]}"#,
@@ -559,13 +546,8 @@ fn session_answers_every_line_and_survives_bad_ones() {
         r#"{"render": {"out": "afile"}}"#,
     ];
     std::fs::write(d.join("afile"), "").unwrap();
-    {
-        let mut stdin = child.stdin.take().unwrap();
-        for l in lines {
-            writeln!(stdin, "{l}").unwrap();
-        }
-    }
-    let o = child.wait_with_output().unwrap();
+    let input: String = lines.iter().map(|l| format!("{l}\n")).collect();
+    let o = common::meshrad_output(d, &["session", "scene.toml", "--backend", "cpu"], input.as_bytes());
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let answers: Vec<serde_json::Value> = String::from_utf8_lossy(&o.stdout)
         .lines()

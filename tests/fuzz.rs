@@ -404,11 +404,14 @@ const KINDS: &[(Kind, &str)] = &[
     (Kind::Session, "session"),
 ];
 
-/// The files of one case (name, bytes) and a `--set` override.
+/// Files by name: (name, bytes).
+type Files = Vec<(String, Vec<u8>)>;
+
+/// The files of one case and a `--set` override.
 #[derive(Clone, Debug)]
 struct Case {
     kind: Kind,
-    files: Vec<(String, Vec<u8>)>,
+    files: Files,
     set: Option<(String, String)>,
 }
 
@@ -445,7 +448,7 @@ const SESSION: &str = "{\"solve\": {}}\n{\"probe\": [[0.5, 1.0, 0.5, 0, 1, 0], [
 {\"solve\": {}}\n{\"set\": {\"lights\": {\"spot\": {\"target\": [0.5, 0.0, 0.0], \"cutoff_angle\": 50.0}}}}\n\
 {\"probe\": [[0.5, 1.0, 0.5, 0, 1, 0]]}\n{\"stats\": {}}\n";
 
-fn text_files() -> Vec<(String, Vec<u8>)> {
+fn text_files() -> Files {
     [("s.toml", TOML), ("m.obj", OBJ), ("m.mtl", MTL), ("p.txt", POINTS)]
         .iter()
         .map(|(n, t)| (n.to_string(), t.as_bytes().to_vec()))
@@ -526,7 +529,7 @@ fn gltf_doc() -> Doc {
 }
 
 /// Every kind's seed files.
-fn seeds() -> Vec<(Kind, Vec<(String, Vec<u8>)>)> {
+fn seeds() -> Vec<(Kind, Files)> {
     let tmp = common::tmpdir();
     let dir = tmp.path();
     let read = |n: &str| (n.to_string(), std::fs::read(dir.join(n)).unwrap());

@@ -580,3 +580,72 @@ fn buffers_read_a_file_once_and_together_within_the_limit() {
     let err = load().map(|_| ()).unwrap_err().to_string();
     assert!(err.contains("buffers[2]") && err.contains("pad2.bin"), "{err}");
 }
+
+/// Issue #35: the triangle count asked of the budget before any triangle is built: per
+/// mesh instance, a list's count / 3 and a strip's or fan's count − 2, the index
+/// accessor's count where there is one, and with `group` only the named subtrees; equal
+/// to what is built when no triangle is degenerate.
+#[test]
+fn triangles_are_counted_from_the_accessors_before_they_are_built() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let mut d = one_mesh(&p, [0.5; 3]);
+    // A strip of 6 vertices (4 triangles) drawn through an index accessor, and a fan.
+    let strip: Vec<f32> = (0..6).flat_map(|i| [(i / 2) as f32, 0.0, (i % 2) as f32]).collect();
+    let sp = d.floats(&strip, "VEC3");
+    let si = d.indices(&[0, 1, 2, 3, 4, 5]);
+    let fan: Vec<f32> = [
+        [0.0, 2.0, 0.0],
+        [1.0, 2.0, 0.0],
+        [1.0, 2.0, 1.0],
+        [0.0, 2.0, 1.0],
+        [-1.0, 2.0, 0.5],
+    ]
+    .iter()
+    .flatten()
+    .copied()
+    .collect();
+    let fp = d.floats(&fan, "VEC3");
+    let mesh = d.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": sp}, "indices": si, "mode": 5},
+                              {"attributes": {"POSITION": fp}, "mode": 6}]}),
+    );
+    // Mesh 1 twice: once under a named parent, once under an unnamed one.
+    let a = d.push("nodes", json!({"mesh": mesh}));
+    let b = d.push("nodes", json!({"mesh": mesh, "translation": [0.0, 5.0, 0.0]}));
+    let named = d.push("nodes", json!({"name": "kept", "children": [a]}));
+    let other = d.push("nodes", json!({"children": [b]}));
+    d.json["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .extend([json!(named), json!(other)]);
+    d.write(dir.path(), "m", Layout::External);
+    let source = Source::Dir(dir.path().to_path_buf());
+    let counted = std::cell::Cell::new(0u64);
+    let budget = |n: u64| {
+        counted.set(n);
+        Ok(())
+    };
+    let g = meshrad::scene::gltf_file::load_within(&source, Path::new("m.gltf"), 1 << 30, None, &budget).unwrap();
+    // The quad (2) and two instances of 4 + 3.
+    assert_eq!(counted.get(), 2 + 2 * 7);
+    assert_eq!(g.mesh.tris.len() as u64, counted.get());
+    let kept = ["kept".to_string()];
+    let g =
+        meshrad::scene::gltf_file::load_within(&source, Path::new("m.gltf"), 1 << 30, Some(&kept), &budget).unwrap();
+    assert_eq!(counted.get(), 7);
+    assert_eq!(g.mesh.tris.len(), 7);
+    // A refusal from the budget is the load's error, before anything is built.
+    let refuse = |n: u64| {
+        Err(meshrad::Error::Mesh {
+            path: "m.gltf".into(),
+            line: None,
+            message: format!("{n} is too many"),
+        })
+    };
+    let err = meshrad::scene::gltf_file::load_within(&source, Path::new("m.gltf"), 1 << 30, None, &refuse)
+        .map(|_| ())
+        .unwrap_err();
+    assert!(err.to_string().contains("16 is too many"), "{err}");
+}

@@ -42,20 +42,17 @@ impl Dir {
         std::fs::write(self.path(rel), text).unwrap();
     }
 
-    /// Runs meshrad here; returns (exit code, stderr, stdout).
+    /// Runs meshrad here; returns (exit code, stderr, stdout). Every run is bounded: no
+    /// panic, no signal, and its peak memory, measured, within its `--max-memory` (256M
+    /// where it names none) and a fixed slack ([`common::meshrad_bounded`]).
     fn run(&self, args: &[&str]) -> (i32, String, String) {
-        let o = Command::new(env!("CARGO_BIN_EXE_meshrad"))
-            .args(args)
-            .current_dir(self.dir.path())
-            .output()
-            .unwrap();
-        let err = String::from_utf8_lossy(&o.stderr).into_owned();
-        assert!(!err.contains("panicked"), "panic for {args:?}: {err}");
-        let code = o
-            .status
-            .code()
-            .unwrap_or_else(|| panic!("killed by a signal for {args:?}: {err}"));
-        (code, err, String::from_utf8_lossy(&o.stdout).into_owned())
+        self.run_with_input(args, b"")
+    }
+
+    /// [`Dir::run`] with `stdin`.
+    fn run_with_input(&self, args: &[&str], stdin: &[u8]) -> (i32, String, String) {
+        let r = common::meshrad_bounded(self.dir.path(), args, stdin);
+        (r.code, r.stderr, r.stdout)
     }
 
     fn solve(&self, extra: &[&str]) -> (i32, String) {
@@ -997,4 +994,130 @@ fn values_that_overflow_are_an_error_not_inf_pixels() {
         &["s.toml", "overflowed single precision"],
     );
     assert!(!d.path("a/0000/total.exr").exists(), "no frame is written");
+}
+
+/// Issue #35: a glTF's triangles are counted from its accessors' counts before any is
+/// built. A strip of 2M vertices (a 24 MB buffer, within the read limit) at
+/// `--max-memory 100M` is refused naming the mesh and the count, with the peak memory
+/// measured within the limit and the slack: counted after building them, a 5.2M-vertex
+/// strip peaked at 924 MB at 256M.
+#[test]
+fn a_gltf_beyond_the_limit_is_refused_before_its_triangles_are_built() {
+    let n = 2_000_000usize;
+    let pos: Vec<f32> = (0..n)
+        .flat_map(|i| [(i / 2) as f32 * 1e-3, 0.0, (i % 2) as f32])
+        .collect();
+    let mut doc = common::gltf::Doc::default();
+    let p = doc.floats(&pos, "VEC3");
+    let mesh = doc.push(
+        "meshes",
+        serde_json::json!({"primitives": [{"attributes": {"POSITION": p}, "mode": 5}]}),
+    );
+    let node = doc.push("nodes", serde_json::json!({"mesh": mesh}));
+    doc.json["scenes"][0]["nodes"] = serde_json::json!([node]);
+    let d = with_toml(&default_toml().replace("m.obj", "strip.glb"));
+    doc.write(d.dir.path(), "strip", common::gltf::Layout::Binary);
+    let args = [
+        "solve",
+        "s.toml",
+        "--out",
+        "o",
+        "-q",
+        "--backend",
+        "cpu",
+        "--max-memory",
+        "100M",
+    ];
+    let r = common::meshrad_bounded(d.dir.path(), &args, b"");
+    assert_eq!(r.code, 1, "{}", r.stderr);
+    for needle in [
+        "s.toml",
+        "object[0].mesh",
+        "1999998 in strip.glb by its accessors' counts",
+        "--max-memory",
+    ] {
+        assert!(r.stderr.contains(needle), "`{needle}` in {}", r.stderr);
+    }
+    // Only the file is held: far below what building 2M triangles takes.
+    assert!(r.peak < 90 << 20, "peaked at {} MiB", r.peak >> 20);
+}
+
+/// Issue #35: forty buffers that name one 6 MiB file read it once; the run loads and
+/// solves within `--max-memory 100M`, its peak memory measured (forty reads held 240 MB).
+#[test]
+fn buffers_naming_one_file_are_read_once_within_the_limit() {
+    let d = with_toml(&default_toml().replace("m.obj", "m.gltf"));
+    let doc = common::gltf::one_mesh(
+        &[
+            0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0,
+        ],
+        [0.5; 3],
+    );
+    let g = doc.write(d.dir.path(), "m", common::gltf::Layout::External);
+    let mut bin = std::fs::read(d.path("m.bin")).unwrap();
+    let n = bin.len();
+    bin.resize(6 << 20, 0);
+    std::fs::write(d.path("m.bin"), &bin).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&g).unwrap()).unwrap();
+    json["buffers"] = serde_json::json!((0..40)
+        .map(|_| serde_json::json!({"uri": "m.bin", "byteLength": n}))
+        .collect::<Vec<_>>());
+    std::fs::write(&g, json.to_string()).unwrap();
+    let (code, err) = d.solve(&["--max-memory", "100M"]);
+    assert_eq!(code, 0, "{err}");
+}
+
+/// Issue #35: a `session` line longer than the bound (8 MiB) is answered with a short
+/// error naming its line, and the session goes on; a 48 MB line at `--max-memory 64M`
+/// stays within the limit and the slack, measured (a 100 MB line took 400 MB at 64M, and
+/// the answer echoed it).
+#[test]
+fn a_long_session_line_is_refused_within_the_limit() {
+    let d = Dir::default_scene();
+    let mut input = vec![b'x'; 48 << 20];
+    input.extend_from_slice(b"\n{\"solve\": {}}\n");
+    let (code, err, out) = d.run_with_input(
+        &["session", "s.toml", "--backend", "cpu", "--max-memory", "64M"],
+        &input,
+    );
+    assert_eq!(code, 0, "{err}");
+    let answers: Vec<&str> = out.lines().collect();
+    assert_eq!(answers.len(), 3, "{out:.3000}");
+    assert!(
+        answers[1].contains("\"ok\":false") && answers[1].contains("line 1") && answers[1].len() < 2500,
+        "{:.3000}",
+        answers[1]
+    );
+    assert!(answers[2].contains("\"ok\":true"), "{}", answers[2]);
+}
+
+/// Issue #35: `animate` checks its planned outputs in time linear in the frames (2000
+/// frames' outputs, compared pairwise, took minutes before frame 0): here the last
+/// frame's probe.csv would overwrite the points file, found at once and named, nothing
+/// solved, within the memory bound.
+#[test]
+fn two_thousand_frames_are_checked_at_once() {
+    let d = Dir::default_scene();
+    d.write("f.toml", &"[[frame]]\n".repeat(2000));
+    std::fs::create_dir_all(d.path("a/1999")).unwrap();
+    d.write("a/1999/probe.csv", "0.2 0.2 0.0 0 0 1\n");
+    let t = std::time::Instant::now();
+    let err = d.fails(
+        &[
+            "animate",
+            "s.toml",
+            "--frames",
+            "f.toml",
+            "--points",
+            "a/1999/probe.csv",
+            "--out",
+            "a",
+            "-q",
+            "--backend",
+            "cpu",
+        ],
+        &["a/1999/probe.csv", "would overwrite the input"],
+    );
+    assert!(t.elapsed().as_secs() < 30, "{:?}: {err}", t.elapsed());
+    assert!(!d.path("a/0000/total.exr").exists(), "nothing was solved");
 }

@@ -192,6 +192,14 @@ pub fn main() -> ExitCode {
         Some(Command::Reference(a)) => reference::run(a),
         Some(Command::Bench(b)) => bench::run(b),
     };
+    // For sizing `--max-memory`, and for the tests that hold each run to it: the process's
+    // own peak, which its parent cannot read once it has exited (`wait4`'s `ru_maxrss`
+    // counts the parent's memory too when the child was spawned from a large process).
+    if std::env::var_os("MESHRAD_REPORT_PEAK").is_some() {
+        if let Some(b) = crate::limits::peak_resident() {
+            eprintln!("meshrad: peak resident memory {} KiB", b >> 10);
+        }
+    }
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

@@ -195,8 +195,35 @@ impl Builder {
                 message: "names no group (give a group name of the OBJ, or a list of them)".into(),
             });
         }
+        let tris_bytes = |what: String, count: f64| {
+            let loaded = self.tris.len() as f64;
+            let after = count * 4f64.powi(tess as i32);
+            self.limits.check(
+                scene_path,
+                &key(if tess > 0 { "tessellate" } else { "mesh" }),
+                &[Part {
+                    what: format!(
+                        "{} triangles ({what}{})",
+                        (loaded + after) as u64,
+                        if tess > 0 {
+                            format!(" × 4^{tess}")
+                        } else {
+                            String::new()
+                        }
+                    ),
+                    bytes: (loaded + after) * crate::limits::BYTES_PER_TRIANGLE as f64,
+                }],
+            )
+        };
         let loaded = if gltf_file::is_gltf(rel) {
-            gltf_file::load(source, rel, read_limit, groups.as_deref())
+            // Counted from the accessors before any triangle is built.
+            let budget = |n: u64| {
+                tris_bytes(
+                    format!("{n} in {} by its accessors' counts, before reading them", e.mesh),
+                    n as f64,
+                )
+            };
+            gltf_file::load_within(source, rel, read_limit, groups.as_deref(), &budget)
                 .map(|mut g| (std::mem::take(&mut g.mesh), Some(g)))
         } else {
             obj::load(source, rel, read_limit, groups.as_deref()).map(|m| (m, None))
@@ -216,26 +243,7 @@ impl Builder {
             },
             (_, err) => err,
         })?;
-        let after = mesh.tris.len() as f64 * 4f64.powi(tess as i32);
-        let loaded = self.tris.len() as f64;
-        self.limits.check(
-            scene_path,
-            &key(if tess > 0 { "tessellate" } else { "mesh" }),
-            &[Part {
-                what: format!(
-                    "{} triangles ({} in {}{})",
-                    (loaded + after) as u64,
-                    mesh.tris.len(),
-                    e.mesh,
-                    if tess > 0 {
-                        format!(" × 4^{tess}")
-                    } else {
-                        String::new()
-                    }
-                ),
-                bytes: (loaded + after) * crate::limits::BYTES_PER_TRIANGLE as f64,
-            }],
-        )?;
+        tris_bytes(format!("{} in {}", mesh.tris.len(), e.mesh), mesh.tris.len() as f64)?;
         for _ in 0..tess {
             let (t, u) = obj::tessellate(&mesh.tris, &mesh.uvs);
             mesh.tris = t;

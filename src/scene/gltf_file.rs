@@ -92,6 +92,21 @@ struct Input<'a> {
 /// Loads `rel` from `source`; it and each buffer and image may have at most `limit` bytes.
 /// With `groups`, only the subtrees of the nodes of those names are kept (each must exist).
 pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) -> Result<LoadedGltf> {
+    load_within(source, rel, limit, groups, &|_| Ok(()))
+}
+
+/// [`load`], with `budget` asked about the triangles the file will make before any is
+/// built: their count from the accessors' counts and the node tree
+/// ([`count_triangles`]), so that a file too large for the run is refused while only its
+/// JSON and buffers are held (issue #35: a 60 MB strip of 5.2M vertices peaked at 924 MB
+/// at `--max-memory 256M` when the count was checked after building them).
+pub fn load_within(
+    source: &Source,
+    rel: &Path,
+    limit: u64,
+    groups: Option<&[String]>,
+    budget: &dyn Fn(u64) -> Result<()>,
+) -> Result<LoadedGltf> {
     let input = Input {
         source,
         rel,
@@ -117,6 +132,7 @@ pub fn load(source: &Source, rel: &Path, limit: u64, groups: Option<&[String]>) 
 
     let roots = scene_roots(doc);
     check_tree(doc, &roots).map_err(err)?;
+    budget(count_triangles(doc, &roots, groups))?;
     let mut walk = Walk {
         buffers: &buffers,
         cameras: &doc.as_json().cameras,
@@ -179,6 +195,49 @@ fn check_tree(doc: &::gltf::Document, roots: &[::gltf::Node<'_>]) -> std::result
         }
     }
     Ok(())
+}
+
+/// The triangles the walk will build (degenerate ones included) under `roots`, counted
+/// without reading a buffer: each primitive's from its index (or POSITION) accessor's
+/// `count` and its mode, once for every node that instances its mesh; with `groups`,
+/// only inside the named nodes' subtrees, as [`Walk::node`] keeps them. The tree is a
+/// forest here ([`check_tree`]), so every node is visited once.
+fn count_triangles(doc: &::gltf::Document, roots: &[::gltf::Node<'_>], groups: Option<&[String]>) -> u64 {
+    let per_mesh: Vec<u64> = doc
+        .meshes()
+        .map(|m| {
+            m.primitives()
+                .map(|p| {
+                    let n = p
+                        .indices()
+                        .or_else(|| p.get(&::gltf::Semantic::Positions))
+                        .map_or(0, |a| a.count() as u64);
+                    match p.mode() {
+                        Mode::Triangles => n / 3,
+                        Mode::TriangleStrip | Mode::TriangleFan => n.saturating_sub(2),
+                        _ => 0,
+                    }
+                })
+                .fold(0u64, u64::saturating_add)
+        })
+        .collect();
+    let mut total = 0u64;
+    let mut stack: Vec<(::gltf::Node<'_>, bool, usize)> =
+        roots.iter().map(|n| (n.clone(), groups.is_none(), 0)).collect();
+    while let Some((n, on, depth)) = stack.pop() {
+        if depth > MAX_DEPTH {
+            // The walk refuses it, naming the node.
+            continue;
+        }
+        let on = on || matches!((groups, n.name()), (Some(g), Some(name)) if g.iter().any(|s| s == name));
+        if on {
+            if let Some(m) = n.mesh() {
+                total = total.saturating_add(per_mesh[m.index()]);
+            }
+        }
+        stack.extend(n.children().map(|c| (c, on, depth + 1)));
+    }
+    total
 }
 
 /// The nodes at the top of the default scene's tree (or the first scene's; or every root
