@@ -1121,3 +1121,67 @@ fn two_thousand_frames_are_checked_at_once() {
     assert!(t.elapsed().as_secs() < 30, "{:?}: {err}", t.elapsed());
     assert!(!d.path("a/0000/total.exr").exists(), "nothing was solved");
 }
+
+/// Issue #35's cases whose semantics `tests/gltf.rs` and `tests/emitters.rs` check in
+/// process, here through the binary with their exit codes, the input named and the peak
+/// memory measured: rotation quaternions (#12), glTF cameras (#14), `sky.scale` and
+/// envmap texels that would overflow (#16, #11).
+#[test]
+fn gltf_rotations_cameras_and_sky_scales_through_the_binary() {
+    let quad = [
+        -1.0f32, 0.0, -1.0, 1.0, 0.0, 1.0, 1.0, 0.0, -1.0, -1.0, 0.0, -1.0, -1.0, 0.0, 1.0, 1.0, 0.0, 1.0,
+    ];
+    let sun = "[[light]]\ntype = \"directional\"\ndirection = [0.1, -1.0, 0.2]\nirradiance = [1.0, 1.0, 1.0]\n";
+    let gltf = |node: serde_json::Value, camera: bool| {
+        let d = with_toml(&format!("[[object]]\nmesh = \"q.gltf\"\n\n{sun}\n{FAST}"));
+        let mut doc = common::gltf::one_mesh(&quad, [0.5; 3]);
+        if camera {
+            let cam = doc.push(
+                "cameras",
+                serde_json::json!({"type": "perspective", "perspective": {"yfov": 0.7, "znear": 0.1}}),
+            );
+            let mut node = node;
+            node["camera"] = serde_json::json!(cam);
+            let n = doc.push("nodes", node);
+            doc.json["scenes"][0]["nodes"]
+                .as_array_mut()
+                .unwrap()
+                .push(serde_json::json!(n));
+        } else {
+            for (k, v) in node.as_object().unwrap() {
+                doc.json["nodes"][0][k] = v.clone();
+            }
+        }
+        doc.write(d.dir.path(), "q", common::gltf::Layout::External);
+        d
+    };
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    let (code, err) = gltf(serde_json::json!({"rotation": [0.0, 0.5, 0.0, 0.5]}), false).solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    let (code, err) = gltf(serde_json::json!({"rotation": [0.0, h, 0.0, h]}), false).solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    gltf(serde_json::json!({"rotation": [0.0, 0.0, 0.0, 0.0]}), false).solve_fails(&[
+        "q.gltf",
+        "nodes[0].rotation",
+        "unit length",
+    ]);
+    gltf(serde_json::json!({"scale": [0.0, 0.0, 0.0]}), true).solve_fails(&["q.gltf", "nodes[1]", "cameras[0]"]);
+    let far = gltf(serde_json::json!({"translation": [0.0, 0.0, 1e9]}), true);
+    let (code, err) = far.solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    // The sky: a scale of 0, and texels whose product with the scale would overflow.
+    let sky = |scale: &str, texel: f32| {
+        let d = Dir::new(
+            &format!("[[object]]\nmesh = \"m.obj\"\n\n[sky]\nenvmap = \"sky.exr\"\nscale = {scale}\n\n{FAST}"),
+            FLOOR,
+            MTL,
+        );
+        exr::prelude::write_rgb_file(d.path("sky.exr"), 4, 2, |_, _| (texel, texel, texel)).unwrap();
+        d
+    };
+    sky("0.0", 1.0).solve_fails(&["s.toml", "sky.scale", "positive"]);
+    sky("1.0", 1.7e38).solve_fails(&["sky.exr", "sky.scale", "overflow"]);
+    sky("1e15", 1e20).solve_fails(&["sky.exr", "sky.scale", "overflow"]);
+    let (code, err) = sky("1.0", 0.5).solve(&[]);
+    assert_eq!(code, 0, "{err}");
+}
