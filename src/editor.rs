@@ -485,6 +485,18 @@ impl Editor {
         let (solution, gpu) =
             self.engine
                 .solve(&self.scene, &mut self.hierarchy, &self.params, keep_links, progress)?;
+        // Node values that overflowed f32 (a light made far too strong) fail the solve
+        // here, so that the edit stays pending and nothing reads them (issue #35).
+        crate::run::check_finite(
+            &self.scene,
+            "node values",
+            solution
+                .values
+                .direct
+                .iter()
+                .chain(&solution.values.indirect)
+                .map(|v| v.truncate()),
+        )?;
         let seconds = FrameSeconds {
             update,
             direct: solution.stats.seconds_direct,

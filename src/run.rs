@@ -41,3 +41,22 @@ pub fn solve(scene: &Scene, params: &SolverParams, engine: &mut Engine, progress
         seconds_solve: t.elapsed().as_secs_f64(),
     })
 }
+
+/// No inf or NaN reaches an output with exit 0 (issue #35): values that overflowed f32
+/// (a scene a few 1e-17 across, whose lights' irradiance grows as 1/distance²) are an
+/// error naming the scene and its size.
+pub(crate) fn check_finite(scene: &Scene, what: &str, values: impl IntoIterator<Item = glam::Vec3>) -> Result<()> {
+    if values.into_iter().all(|v| v.is_finite()) {
+        return Ok(());
+    }
+    Err(crate::error::Error::SceneValue {
+        path: scene.path.clone(),
+        key: "object".into(),
+        message: format!(
+            "the {what} overflowed single precision (inf or NaN): the geometry is {:.3e} across, and light from a \
+             source grows as 1/distance²; scale the scene (an object's `scale`) or the lights' power into a \
+             range f32 holds",
+            scene.scale
+        ),
+    })
+}

@@ -1185,3 +1185,40 @@ fn gltf_rotations_cameras_and_sky_scales_through_the_binary() {
     let (code, err) = sky("1.0", 0.5).solve(&[]);
     assert_eq!(code, 0, "{err}");
 }
+
+/// Issue #35 #10 and #11 in a session, through the binary: a solve whose node values
+/// overflow f32 (a light set to 3e38) is an error naming the scene, the edit stays
+/// pending (`stats` says stale, a probe solves again and fails too, nothing is read
+/// from the last solution), and once the light is set back a probe solves and answers.
+#[test]
+fn a_session_solve_that_overflows_keeps_its_edit_pending() {
+    let d = Dir::default_scene();
+    let lines = [
+        r#"{"solve": {}}"#,
+        r#"{"set": {"lights": {"light0": {"intensity": [3e38, 3e38, 3e38]}}}}"#,
+        r#"{"solve": {}}"#,
+        r#"{"stats": {}}"#,
+        r#"{"probe": [[0.2, 0.2, 0.0, 0, 0, 1]]}"#,
+        r#"{"set": {"lights": {"light0": {"intensity": [1.0, 1.0, 1.0]}}}}"#,
+        r#"{"probe": [[0.2, 0.2, 0.0, 0, 0, 1]]}"#,
+        r#"{"stats": {}}"#,
+    ];
+    let input: String = lines.iter().map(|l| format!("{l}\n")).collect();
+    let (code, err, out) = d.run_with_input(&["session", "s.toml", "--backend", "cpu"], input.as_bytes());
+    assert_eq!(code, 0, "{err}");
+    let a: Vec<serde_json::Value> = out.lines().map(|l| serde_json::from_str(l).unwrap()).collect();
+    assert_eq!(a.len(), lines.len() + 1, "{out}");
+    let ok: Vec<bool> = a[1..].iter().map(|v| v["ok"] == true).collect();
+    assert_eq!(ok, [true, true, false, true, false, true, true, true], "{out}");
+    let e = a[3]["error"].as_str().unwrap();
+    assert!(
+        e.starts_with("line 3: ") && e.contains("s.toml") && e.contains("overflowed"),
+        "{e}"
+    );
+    assert_eq!(a[4]["stale"], true, "the edit is pending after the failed solve");
+    assert!(a[5]["error"].as_str().unwrap().contains("overflowed"));
+    assert_eq!(a[7]["solved"], true);
+    let total = a[7]["values"][0]["total"][0].as_f64().unwrap();
+    assert!(total.is_finite() && total > 0.0, "{total}");
+    assert_eq!(a[8]["stale"], false);
+}
