@@ -384,3 +384,45 @@ fn doubted_samples_gather_and_the_others_read_the_basis_bit_for_bit() {
     assert_eq!(default.basis_samples + default.doubted_samples, hits);
     assert!(default.basis_samples > 0, "{}", default.doubted_samples);
 }
+
+/// `bench compare` (the device check's GPU-against-CPU test): equal images differ by 0; an
+/// image 1 % brighter by 1 % relative RMS, refused above a tolerance below that; images
+/// of two sizes are an error naming both.
+#[test]
+fn bench_compare_measures_and_refuses_above_the_tolerance() {
+    let dir = common::tmpdir();
+    let d = dir.path();
+    let write = |name: &str, w: usize, h: usize, gain: f32| {
+        exr::prelude::write_rgb_file(d.join(name), w, h, |x, y| {
+            let v = gain * (0.1 + 0.01 * x as f32 + 0.02 * y as f32);
+            (v, 0.5 * v, 0.25 * v)
+        })
+        .unwrap();
+    };
+    write("a.exr", 16, 8, 1.0);
+    write("b.exr", 16, 8, 1.01);
+    write("c.exr", 8, 8, 1.0);
+    let o = meshrad(&["bench", "compare", "a.exr", "a.exr", "--tolerance", "0"], d);
+    ok(&o);
+    assert!(String::from_utf8_lossy(&o.stdout).starts_with("rel_rms=0.0"));
+    let o = meshrad(&["bench", "compare", "b.exr", "a.exr", "--tolerance", "0.02"], d);
+    ok(&o);
+    let out = String::from_utf8_lossy(&o.stdout).into_owned();
+    let rel: f64 = out
+        .strip_prefix("rel_rms=")
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!((rel - 0.01).abs() < 1e-4, "{out}");
+    let o = meshrad(&["bench", "compare", "b.exr", "a.exr", "--tolerance", "0.005"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("b.exr") && err.contains("tolerance"), "{err}");
+    let o = meshrad(&["bench", "compare", "c.exr", "a.exr"], d);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("c.exr") && err.contains("a.exr") && err.contains("8×8"),
+        "{err}"
+    );
+}

@@ -1,4 +1,4 @@
-//! `meshrad bench accuracy`, `table2`, `coverage`, `nodes` and `edit`.
+//! `meshrad bench accuracy`, `table2`, `coverage`, `nodes`, `edit` and `compare`.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -34,6 +34,21 @@ pub enum BenchCommand {
     /// The modify-review cycle: fixed frames that move objects and lights, each solved as
     /// an edit (hierarchy built once) and as a fresh solve, alternating, in one run.
     Edit(EditArgs),
+    /// Two images (EXR, linear) compared: relative RMS over the pixels whose reference is
+    /// above 1 % of its mean, and the largest pixel difference relative to the reference's
+    /// mean; exit 1 above `--tolerance` (the device check's GPU-against-CPU test).
+    Compare(CompareArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// The image measured.
+    estimate: PathBuf,
+    /// The image it is measured against.
+    reference: PathBuf,
+    /// The largest relative RMS that passes (exit 1 above it).
+    #[arg(long)]
+    tolerance: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -189,6 +204,48 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Coverage(a) => run_coverage(a),
         BenchCommand::Nodes(a) => run_nodes(a),
         BenchCommand::Edit(a) => run_edit(a),
+        BenchCommand::Compare(a) => run_compare(a),
+    }
+}
+
+fn run_compare(a: CompareArgs) -> Result<()> {
+    let read = |p: &std::path::Path| -> Result<(u32, u32, Vec<glam::Vec3>)> {
+        let img = image::open(p)
+            .with_context(|| format!("{}: not an image meshrad can read", p.display()))?
+            .into_rgb32f();
+        let px = img.pixels().map(|q| glam::Vec3::from(q.0)).collect();
+        Ok((img.width(), img.height(), px))
+    };
+    let (ew, eh, e) = read(&a.estimate)?;
+    let (rw, rh, r) = read(&a.reference)?;
+    if (ew, eh) != (rw, rh) {
+        anyhow::bail!(
+            "{} is {ew}×{eh} and {} is {rw}×{rh}: images of one size are compared",
+            a.estimate.display(),
+            a.reference.display()
+        );
+    }
+    let rel_rms = crate::metrics::image_rel_rms(&e, &r);
+    let mean = r.iter().map(|v| v.as_dvec3().element_sum() / 3.0).sum::<f64>() / r.len().max(1) as f64;
+    let max_diff = e
+        .iter()
+        .zip(&r)
+        .map(|(a, b)| (a.as_dvec3() - b.as_dvec3()).abs().max_element())
+        .fold(0.0f64, f64::max);
+    let finite = e.iter().chain(&r).all(|v| v.is_finite());
+    println!(
+        "rel_rms={rel_rms:.6e} max_diff_over_mean={:.6e} pixels={} finite={finite}",
+        if mean > 0.0 { max_diff / mean } else { 0.0 },
+        r.len()
+    );
+    match a.tolerance {
+        Some(t) if !(finite && rel_rms <= t) => anyhow::bail!(
+            "{} differs from {} by a relative RMS of {rel_rms:.3e}, above the tolerance {t:e}{}",
+            a.estimate.display(),
+            a.reference.display(),
+            if finite { "" } else { " (inf or NaN pixels)" }
+        ),
+        _ => Ok(()),
     }
 }
 
