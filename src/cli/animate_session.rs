@@ -157,9 +157,16 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
     let mut inputs = scene.report.inputs.clone();
     inputs.push(a.frames.clone());
     inputs.extend(a.points.clone());
+    // The frames' folders are made as each frame is written; a file in one that does not
+    // exist yet can be no input and no other output, so only existing ones are checked
+    // (a refused run leaves no empty folders behind).
+    output::ensure_dir(&a.out)?;
     let mut planned: Vec<(&str, PathBuf)> = Vec::new();
     for k in 0..frames.len() {
         let dir = frame_dir(&a.out, k);
+        if !dir.exists() {
+            continue;
+        }
         output::ensure_dir(&dir)?;
         planned.extend(image::file_names(&dir).into_iter().map(|p| ("an image", p)));
         planned.push(("stats.json", dir.join("stats.json")));
@@ -183,6 +190,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         ed.apply(f, &format!("{}: frame {k}", a.frames.display()))?;
         let frame = ed.solve(&hidden)?;
         let dir = frame_dir(&a.out, k);
+        output::ensure_dir(&dir)?;
         let (files, times) = frame_outputs(&ed, &frame, k, &dir, points.as_deref(), exposure, &hidden)?;
         files.commit()?;
         let total = t.elapsed().as_secs_f64();
