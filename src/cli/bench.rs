@@ -152,8 +152,9 @@ pub struct AccuracyArgs {
 
 #[derive(Args, Debug)]
 pub struct Table2Args {
-    /// Scenes (cornell, buddha, buddha1m, sponza; comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "cornell,buddha,buddha1m,sponza")]
+    /// Scenes (cornell, buddha, buddha1m, sponza; comma-separated). Default: all four, or
+    /// Cornell alone with --smoke.
+    #[arg(long, value_delimiter = ',')]
     scenes: Vec<String>,
     /// Where cornell_buddha.toml and sponza.toml are.
     #[arg(long, default_value = "scenes/shared")]
@@ -553,8 +554,18 @@ fn run_table2(a: Table2Args) -> Result<()> {
         skip_cpu: a.skip_cpu,
         smoke: a.smoke,
     };
+    let default: &[&str] = if a.smoke {
+        &["cornell"]
+    } else {
+        &["cornell", "buddha", "buddha1m", "sponza"]
+    };
+    let scenes: Vec<String> = if a.scenes.is_empty() {
+        default.iter().map(|s| s.to_string()).collect()
+    } else {
+        a.scenes.clone()
+    };
     let mut tables = Vec::new();
-    for name in &a.scenes {
+    for name in &scenes {
         let spec = table2::SCENES
             .iter()
             .find(|s| s.name == name)
