@@ -11,11 +11,12 @@ cargo test
 # The Python tests compare the module with the CLI: the release binary (built already by
 # the README's first command, and then this compiles nothing).
 cargo build --release
+bin="$(cd "${CARGO_TARGET_DIR:-target}" && pwd)/release/meshrad"
 venv="${MESHRAD_VENV:-target/python-venv}"
 [ -x "$venv/bin/python" ] || python3 -m venv "$venv"
 "$venv/bin/python" -m pip install -q ".[test]"
-MESHRAD_BIN="$PWD/target/release/meshrad" "$venv/bin/python" -m pytest -q python/tests
+MESHRAD_BIN="$bin" "$venv/bin/python" -m pytest -q python/tests
 # The device check at its smoke size on every Vulkan device here (lavapipe in CI): GPU
 # against CPU images of the shipped scenes, an animate sequence, bench table2 --smoke.
-bash benches/device-check.sh target/release/meshrad --smoke --out target/device-check >/dev/null \
+bash benches/device-check.sh "$bin" --smoke --out target/device-check >/dev/null \
   || { cat target/device-check/report.md; exit 1; }
