@@ -399,6 +399,21 @@ fn bad_gltf_names_the_file_and_the_json_path() {
     let mut doc = one_mesh(&tetra(), [0.5; 3]);
     doc.json["nodes"][0]["children"] = json!([0]);
     gltf_fails_with(&doc, Layout::External, ok, &["m.gltf", "nodes[0]"]);
+    // A GLB header whose total length is below its own 12 bytes (the gltf crate
+    // subtracted unchecked: an overflow panic in a test build; found by the fuzzer).
+    let doc = one_mesh(&tetra(), [0.5; 3]);
+    let short = |d: &Path| {
+        let p = d.join("m.glb");
+        let mut b = std::fs::read(&p).unwrap();
+        b[8..12].copy_from_slice(&5u32.to_le_bytes());
+        std::fs::write(&p, b).unwrap();
+    };
+    gltf_fails_with(
+        &doc,
+        Layout::Binary,
+        short,
+        &["m.glb", "GLB header", "length of 5 bytes"],
+    );
     // Issue #35: a DAG, not a tree: each node lists the next twice, 40 deep (2^40 paths
     // if walked), refused at once naming the node.
     let mut doc = one_mesh(&tetra(), [0.5; 3]);

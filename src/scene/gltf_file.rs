@@ -116,6 +116,7 @@ pub fn load_within(
     };
     let err = |message: String| input.err(message);
     let bytes = source.read_limited(rel, limit)?;
+    check_glb_header(&bytes).map_err(|m| err(format!("not a valid glTF 2.0 file: {m}")))?;
     let file = ::gltf::Gltf::from_slice_without_validation(&bytes)
         .map_err(|e| err(format!("not a valid glTF 2.0 file: {e}")))?;
     validate(file.document.as_json()).map_err(|m| err(format!("not a valid glTF 2.0 file: {m}")))?;
@@ -161,6 +162,28 @@ pub fn load_within(
     }
     input.note_unsupported(doc, &mut unsupported, &mut out.mesh);
     Ok(out)
+}
+
+/// A GLB's header (`glTF`, version, length) must give a length of at least its own 12
+/// bytes: the gltf crate subtracts 12 from it unchecked (a panic where overflow is
+/// checked, a wrapped length elsewhere). Found by the fuzzer (`tests/fuzz.rs`, glb kind).
+fn check_glb_header(bytes: &[u8]) -> std::result::Result<(), String> {
+    if bytes.get(..4) != Some(b"glTF".as_slice()) {
+        return Ok(());
+    }
+    match bytes.get(8..12) {
+        None => Err(format!("its GLB header is cut short ({} bytes of 12)", bytes.len())),
+        Some(b) => {
+            let length = u32::from_le_bytes([b[0], b[1], b[2], b[3]]);
+            if length < 12 {
+                Err(format!(
+                    "its GLB header gives a total length of {length} bytes, less than the header's own 12"
+                ))
+            } else {
+                Ok(())
+            }
+        }
+    }
 }
 
 /// glTF requires the node graph to be a forest: a node has at most one parent and a
