@@ -20,8 +20,10 @@
 //! `MESHRAD_FUZZ_SECONDS` (default 60) bounds the run, `MESHRAD_FUZZ_SEED` (default 1)
 //! picks the sequence, `MESHRAD_FUZZ_KINDS` (default all, e.g. `gltf,glb`) the kinds,
 //! `MESHRAD_FUZZ_BIN` the binary for session cases (default the one cargo built; a copy
-//! keeps a long run apart from rebuilds); failing cases go to `target/fuzz-failures/`. For a long run:
-//! `MESHRAD_FUZZ_SECONDS=3600 MESHRAD_FUZZ_SEED=$RANDOM cargo test --release --test fuzz -- --nocapture`.
+//! keeps a long run apart from rebuilds); failing cases go to `target/fuzz-failures/`. For a long run,
+//! in the test profile (optimised, with overflow checks; `--release` is faster but lets an
+//! integer overflow wrap unseen, as a GLB header's length did):
+//! `MESHRAD_FUZZ_SECONDS=3600 MESHRAD_FUZZ_SEED=$RANDOM cargo test --test fuzz -- --nocapture`.
 
 mod common;
 
