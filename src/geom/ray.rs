@@ -119,9 +119,12 @@ pub fn offset_origin(p: Vec3, n: Vec3, scale: f32) -> Vec3 {
     let fine = scale * (1.0 / OFFSET_FINE_DIV);
     let mut out = [0.0f32; 3];
     for i in 0..3 {
+        // `as` saturates a non-finite or huge product (a normal of degenerate geometry, such
+        // as an object scaled into subnormals) to i32::MIN, whose negation wraps (found by
+        // the fuzzer; an overflow panic where overflow is checked).
         let of = (OFFSET_ULPS * n[i]) as i32;
         let bits = p[i].to_bits() as i32;
-        let moved = f32::from_bits(bits.wrapping_add(if p[i] < 0.0 { -of } else { of }) as u32);
+        let moved = f32::from_bits(bits.wrapping_add(if p[i] < 0.0 { of.wrapping_neg() } else { of }) as u32);
         out[i] = if p[i].abs() < near { p[i] + fine * n[i] } else { moved };
     }
     Vec3::from(out)
@@ -130,6 +133,19 @@ pub fn offset_origin(p: Vec3, n: Vec3, scale: f32) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A normal that is not finite (degenerate geometry) moves nothing into a panic: the
+    /// offset wraps as it does where overflow is unchecked.
+    #[test]
+    fn offset_origin_takes_a_normal_that_is_not_finite() {
+        for n in [
+            Vec3::new(f32::NEG_INFINITY, 0.0, 0.0),
+            Vec3::new(-1e30, 0.0, 0.0),
+            Vec3::NAN,
+        ] {
+            let _ = offset_origin(Vec3::new(-5.0, 3.0, 1.0), n, 1.0);
+        }
+    }
 
     fn tri(v0: [f32; 3], v1: [f32; 3], v2: [f32; 3]) -> Tri {
         Tri {
