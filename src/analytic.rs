@@ -235,6 +235,44 @@ pub fn square_emitter(dir: &Path, s: f64, a: f64, h: f64, le: f64, solver: &str)
     )
 }
 
+/// The x-range of [`masked_emitter`]'s lamp that emits, in units of its half side `a`.
+pub const MASKED_STRIP: [f64; 2] = [1.0 / 16.0, 15.0 / 16.0];
+
+/// [`square_emitter`] with its emission masked: the lamp is two squares `[-a, 0] × [-a,
+/// a]` and `[0, a] × [-a, a]` (two triangles each) with `Ke le` times `map_Ke mask.png`,
+/// a 256×16 sRGB PNG, u running with x across the lamp: white in texel columns 136 to
+/// 247, black elsewhere (so that the repeating bilinear read stays black over the left
+/// square, its edges included). Only the strip `x ∈ [a/16, 15a/16]` emits
+/// ([`MASKED_STRIP`]: `L_e = le`, the one-texel blends at its borders even out), and the
+/// dark square's triangles are no emitters.
+pub fn masked_emitter(dir: &Path, s: f64, a: f64, h: f64, le: f64, solver: &str) -> Result<PathBuf> {
+    let path = square_emitter(dir, s, a, h, le, solver)?;
+    write(
+        dir,
+        "scene.obj",
+        &format!(
+            "mtllib scene.mtl\nvt 0 0\nvt 0 1\nvt 0.5 1\nvt 1 1\nvt 0.5 0\nvt 1 0\n\
+             usemtl floor\nv {s} 0 {s}\nv {s} 0 -{s}\nv -{s} 0 -{s}\nv -{s} 0 {s}\nf 1/1 2/1 3/1\nf 1/1 3/1 4/1\n\
+             usemtl lamp\nv {a} {h} {a}\nv 0 {h} {a}\nv -{a} {h} {a}\nv -{a} {h} -{a}\nv 0 {h} -{a}\nv {a} {h} -{a}\n\
+             f 5/4 6/3 9/5\nf 5/4 9/5 10/6\nf 6/3 7/2 8/1\nf 6/3 8/1 9/5\n"
+        ),
+    )?;
+    write(
+        dir,
+        "scene.mtl",
+        &format!("newmtl floor\nKd 0.5 0.5 0.5\nnewmtl lamp\nKd 0 0 0\nKe {le} {le} {le}\nmap_Ke mask.png\n"),
+    )?;
+    let mask = image::RgbImage::from_fn(256, 16, |x, _| {
+        image::Rgb([if (136..248).contains(&x) { 255 } else { 0 }; 3])
+    });
+    let png = dir.join("mask.png");
+    mask.save(&png).map_err(|e| Error::Texture {
+        path: png.clone(),
+        message: e.to_string(),
+    })?;
+    Ok(path)
+}
+
 /// Irradiance at `x` (unit normal `n`) from a uniformly emitting polygon of radiance `le`
 /// with corners `poly` (in order), wholly above `x`'s tangent plane: Lambert's formula
 /// `E = (L/2) |Σ_i θ_i n · (v_i × v_{i+1}) / |v_i × v_{i+1}||`, `v_i` the unit vectors to

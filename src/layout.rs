@@ -89,6 +89,9 @@ pub struct GpuEmitter {
     pub radiance: [f32; 3],
     /// Luminance of `radiance` (Rec. 709).
     pub lum: f32,
+    /// The emission factor and the emission texture (or [`NONE`]): `scene::emitter::Emitter`.
+    pub scale: [f32; 3],
+    pub texture: u32,
 }
 
 /// Texture wrap modes ([`TextureInfo::wrap`]).

@@ -9,7 +9,7 @@
 mod common;
 
 use glam::{DVec3, Vec3};
-use meshrad::analytic::{emitting_box, polygon_irradiance, sky_plane, square_emitter};
+use meshrad::analytic::{emitting_box, masked_emitter, polygon_irradiance, sky_plane, square_emitter, MASKED_STRIP};
 use std::f64::consts::PI;
 
 const RHO: f64 = 0.5;
@@ -195,6 +195,63 @@ fn square_emitter_matches_lambert() {
     let (run, img) = solve_and_render(&scene, &params);
     assert!(run.solution.values.direct.iter().any(|v| v.x > 0.0));
     assert!(img.direct.iter().all(|v| v.x.is_finite() && v.x >= 0.0));
+}
+
+/// An emission texture (`map_Ke`) read per texel: a square lamp masked to a strip
+/// ([`masked_emitter`]) lights the floor as a uniform emitter of that strip's shape
+/// (Lambert's formula over it), the dark half's triangles are no emitters (they cost
+/// nothing), and the camera sees the mask: `L_e` under the strip, black beside it.
+#[test]
+fn emission_textures_light_by_texel() {
+    let dir = common::tmpdir();
+    let (a, h) = (1.0f64, 1.0f64);
+    let solver = "levels = 3\ncoarsest = 40\nsender_level = 2\nrays = 64\nbounces = 1\nemitter_samples = 4096\n";
+    let path = masked_emitter(dir.path(), 4.0, a, h, LE, solver).unwrap();
+    let (scene, _) = common::load(&path, &[]);
+    assert_eq!(
+        scene.report.emitting_triangles, 2,
+        "the black square's two triangles cost nothing"
+    );
+    let [x0, x1] = MASKED_STRIP.map(|f| f * a);
+    let strip = [
+        DVec3::new(x1, h, a),
+        DVec3::new(x0, h, a),
+        DVec3::new(x0, h, -a),
+        DVec3::new(x1, h, -a),
+    ];
+    for (dx, dz) in [(0.5f64, 0.0f64), (-0.5, 0.2), (1.5, -0.4), (-2.0, 1.0), (0.05, 0.6)] {
+        let x = DVec3::new(dx, 0.0, dz);
+        let want = polygon_irradiance(x, DVec3::Y, &strip, LE);
+        let (e, se) = scene.direct_with_error(x.as_vec3(), Vec3::Y);
+        let (e, se) = (e.x as f64, se.x as f64);
+        println!("masked emitter at {x}: {e} ± {se}, Lambert over the strip {want}");
+        // The one-texel blends at the strip's borders are symmetric: what they move
+        // changes the answer by well under 1 %.
+        assert!(
+            (e - want).abs() < 4.0 * se + 0.01 * want,
+            "at {x}: {e} ± {se}, want {want}"
+        );
+    }
+    // Seen from below, the lamp shows the mask: L_e under the strip, nothing beside it.
+    let text = std::fs::read_to_string(&path)
+        .unwrap()
+        .replace("position = [0.0, 0.5, 4]", "position = [0.0, 0.1, 0.0]")
+        .replace(
+            "target = [0.0, 0.0, 0.0]",
+            "target = [0.0, 1.0, 0.0]\nup = [0.0, 0.0, 1.0]",
+        );
+    assert!(text.contains("position = [0.0, 0.1, 0.0]"), "{text}");
+    std::fs::write(&path, text).unwrap();
+    let (scene, params) = common::load(&path, &[]);
+    let (_, img) = solve_and_render(&scene, &params);
+    let row = (img.height / 2 * img.width) as usize;
+    let px: Vec<f32> = (0..img.width as usize).map(|x| img.direct[row + x].x).collect();
+    let (lit, dark) = (
+        px.iter().filter(|&&v| (v as f64 - LE).abs() < 1e-3).count(),
+        px.iter().filter(|&&v| v == 0.0).count(),
+    );
+    println!("row across the lamp: {px:?}");
+    assert!(lit >= 8 && dark >= 8, "{lit} pixels at L_e, {dark} black: {px:?}");
 }
 
 /// The emitter seen from below shows its radiance `L_e` in the direct image (a black

@@ -478,6 +478,69 @@ fn an_albedo_of_one_loads_lowered_to_max_albedo() {
     assert_eq!(s.materials[0].kd, [0.5; 3]);
 }
 
+/// Issue #34: `emissiveTexture` × `emissiveFactor` is the emission, per texel (glTF's v
+/// down the image, the sampler's clamp); a texture under the default factor of zero
+/// emits nothing.
+#[test]
+fn emissive_textures_multiply_the_factor_per_texel() {
+    let dir = common::tmpdir();
+    let (p, uv) = quad();
+    let mut d = Doc::default();
+    let pos = d.floats(&p, "VEC3");
+    let tc = d.floats(&uv, "VEC2");
+    let view = d.view(&common::gltf::checker_png());
+    let img = d.push("images", json!({"bufferView": view, "mimeType": "image/png"}));
+    let sampler = d.push("samplers", json!({"wrapS": 33071, "wrapT": 33071}));
+    let tex = d.push("textures", json!({"source": img, "sampler": sampler}));
+    let m = d.push(
+        "materials",
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]},
+               "emissiveFactor": [3.0, 3.0, 3.0], "emissiveTexture": {"index": tex}}),
+    );
+    let mesh = d.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": tc}, "material": m}]}),
+    );
+    let n = d.push("nodes", json!({"mesh": mesh}));
+    d.json["scenes"][0]["nodes"] = json!([n]);
+    let g = d.write(dir.path(), "lamp", Layout::Binary);
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, ""), &[]);
+    assert_eq!(s.report.emitting_triangles, 2);
+    let notes = s.report.notes.join("\n");
+    assert!(!notes.contains("emissive"), "{notes}");
+    // The quad lies in y = 0 with uv = (x, z); the checker's top row (glTF v = 0) is red
+    // and green, its bottom row blue and white.
+    let at = |x: f32, z: f32| -> Vec3 {
+        for (t, tri) in s.tris.iter().enumerate() {
+            let (a, b, c) = (Vec3::from(tri.v0), Vec3::from(tri.v1), Vec3::from(tri.v2));
+            let cross = |u: Vec3, v: Vec3| u.x * v.z - u.z * v.x;
+            let q = Vec3::new(x, 0.0, z);
+            let area = cross(b - a, c - a);
+            let (b1, b2) = (cross(q - a, c - a) / area, cross(b - a, q - a) / area);
+            if b1 >= 0.0 && b2 >= 0.0 && b1 + b2 <= 1.0 {
+                return s.emitted_at(t as u32, b1, b2);
+            }
+        }
+        panic!("({x}, {z}) is on no triangle");
+    };
+    for (x, z, want) in [
+        (0.1, 0.1, Vec3::new(3.0, 0.0, 0.0)),
+        (0.9, 0.1, Vec3::new(0.0, 3.0, 0.0)),
+        (0.1, 0.9, Vec3::new(0.0, 0.0, 3.0)),
+        (0.9, 0.9, Vec3::splat(3.0)),
+    ] {
+        let got = at(x, z);
+        assert!((got - want).abs().max_element() < 1e-5, "at ({x}, {z}): {got}, want {want}");
+    }
+    // The default emissiveFactor is zero: the texture alone emits nothing.
+    d.json["materials"][0] = json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]},
+                                    "emissiveTexture": {"index": tex}});
+    let g = d.write(dir.path(), "dark", Layout::Binary);
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[]);
+    assert_eq!(s.report.emitting_triangles, 0);
+}
+
 /// Issue #35: a non-unit rotation quaternion is normalised with a note (it scaled and
 /// sheared the mesh), and a zero one is refused naming the node.
 #[test]

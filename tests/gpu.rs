@@ -605,7 +605,8 @@ fn compare(a: &[Vec4], b: &[Vec4]) -> (f64, f64) {
 
 /// Emitting surfaces and the sky on the GPU: the area-lit Cornell box (every variant, the
 /// exact first bounce's direct light at the hits included), a floor and wall under a
-/// constant sky and under an environment map solve as on the CPU, with the same samples
+/// constant sky and under an environment map, and a lamp masked by an emission texture
+/// solve as on the CPU, with the same samples
 /// (seeds from node and ray indices) in single precision.
 #[test]
 fn emitters_and_sky_solve_as_on_the_cpu() {
@@ -643,6 +644,11 @@ fn emitters_and_sky_solve_as_on_the_cpu() {
     .unwrap();
     let (s, p) = common::load(&map, &[]);
     cases.push(("environment map".into(), s, p));
+    // An emission texture (`map_Ke`): the kernels read it per texel at each sample.
+    let masked = meshrad::analytic::masked_emitter(&dir.path().join("masked"), 4.0, 1.0, 1.0, 2.0, solver).unwrap();
+    let (s, p) = common::load(&masked, &[]);
+    assert!(s.textured());
+    cases.push(("emission texture".into(), s, p));
     for (name, s, p) in &cases {
         let g = meshrad::solve(s, p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
         let c = meshrad::solve(s, p, &mut meshrad::Engine::cpu(), &Progress::hidden()).unwrap();

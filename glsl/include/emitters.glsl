@@ -122,12 +122,26 @@ bool spherical_triangle(vec3 x, vec3 v0, vec3 v1, vec3 v2, vec2 u, out vec3 w, o
     return !any(isnan(w)) && !any(isinf(w));
 }
 
-// emitter::sample_triangle: one sample of the triangle (v0, v1, v2) emitting `l` from its
-// front, picked with probability `prob`, seen from (x, n) with shadow rays from `o`.
-bool emitter_sample(vec3 v0, vec3 v1, vec3 v2, vec3 l, float prob, vec3 x, vec3 n, vec3 o, vec2 u, out vec3 value,
-                    out vec3 to_point) {
-    value = vec3(0.0);
+// emitter::barycentrics: those of a point y in the plane of (v0, v1, v2), brought into
+// the triangle (cr: the edges' cross product).
+vec2 emitter_barycentrics(vec3 v0, vec3 v1, vec3 v2, vec3 cr, vec3 y) {
+    vec3 e1 = v1 - v0;
+    vec3 e2 = v2 - v0;
+    vec3 p = y - v0;
+    float n2 = dot(cr, cr);
+    float b1 = clamp(dot(cross(p, e2), cr) / n2, 0.0, 1.0);
+    float b2 = clamp(dot(cross(e1, p), cr) / n2, 0.0, 1.0 - b1);
+    return vec2(b1, b2);
+}
+
+// emitter::sample_triangle: one sample of the triangle (v0, v1, v2) emitting from its
+// front, picked with probability `prob`, seen from (x, n) with shadow rays from `o`: the
+// geometry term over the density (`weight`), the shadow ray and the point's barycentrics.
+bool emitter_sample(vec3 v0, vec3 v1, vec3 v2, float prob, vec3 x, vec3 n, vec3 o, vec2 u, out float weight,
+                    out vec3 to_point, out vec2 bc) {
+    weight = 0.0;
     to_point = vec3(0.0);
+    bc = vec2(0.0);
     if (prob <= 0.0) {
         return false;
     }
@@ -137,7 +151,6 @@ bool emitter_sample(vec3 v0, vec3 v1, vec3 v2, vec3 l, float prob, vec3 x, vec3 
         return false;
     }
     vec3 y;
-    float weight;
     vec3 w;
     float omega;
     if (solid_angle(x, v0, v1, v2) >= SPHERICAL_MIN && spherical_triangle(x, v0, v1, v2, u, w, omega)) {
@@ -151,6 +164,7 @@ bool emitter_sample(vec3 v0, vec3 v1, vec3 v2, vec3 l, float prob, vec3 x, vec3 
         }
         y = x + w * t;
         weight = c * omega / prob;
+        bc = emitter_barycentrics(v0, v1, v2, cr, y);
     } else {
         // geom::sampling::uniform_triangle.
         float s = sqrt(u.x);
@@ -166,8 +180,8 @@ bool emitter_sample(vec3 v0, vec3 v1, vec3 v2, vec3 l, float prob, vec3 x, vec3 
             return false;
         }
         weight = cx * ce / d2 * 0.5 * length(cr) / prob;
+        bc = vec2(b1, b2);
     }
-    value = l * weight;
     to_point = y - o;
     return true;
 }
@@ -179,6 +193,17 @@ void emitter_corners(GlobalsRef g, GpuEmitter e, out vec3 v0, out vec3 v1, out v
     v0 = xform_point(ob.to_world, t.v0);
     v1 = xform_point(ob.to_world, t.v1);
     v2 = xform_point(ob.to_world, t.v2);
+}
+
+// Scene::emitter_radiance: the radiance emitter e sends from barycentrics bc.
+vec3 emitter_radiance(GlobalsRef g, GpuEmitter e, vec2 bc) {
+    if (!TEXTURED || e.texture == NONE) {
+        return e.radiance;
+    }
+    TriUv uv = g.uvs.v[e.tri];
+    float b0 = 1.0 - bc.x - bc.y;
+    vec2 u = vec2(uv.uv[0] * b0 + uv.uv[2] * bc.x + uv.uv[4] * bc.y, uv.uv[1] * b0 + uv.uv[3] * bc.x + uv.uv[5] * bc.y);
+    return e.scale * sample_texture(g, g.textures.v[e.texture], u);
 }
 
 // Mean and standard error of `count` samples from their sums (emitter::mean_and_error).
@@ -250,10 +275,12 @@ vec3 emitters_direct(GlobalsRef g, vec3 x, vec3 n, vec3 o, uint64_t seed, uint c
         vec3 v1;
         vec3 v2;
         emitter_corners(g, e, v0, v1, v2);
-        vec3 value;
+        float weight;
         vec3 to_point;
-        if (emitter_sample(v0, v1, v2, e.radiance, prob, x, n, o, u.yz, value, to_point) &&
+        vec2 bc;
+        if (emitter_sample(v0, v1, v2, prob, x, n, o, u.yz, weight, to_point, bc) &&
             !occluded_scene(g, o, to_point, SHADOW_TMAX)) {
+            vec3 value = emitter_radiance(g, e, bc) * weight;
             sum += value;
             sum2 += value * value;
         }

@@ -40,7 +40,7 @@ struct ObjectInfo {
 };
 struct BvhNode { vec3 lo; float pad0; vec3 hi; float pad1; uint prim_count; uint first_index; uint meta1; uint meta2; };
 struct CwNode { vec3 p; uint e_imask; uint child_base; uint prim_base; uvec2 meta; uvec2 lox; uvec2 hix; uvec2 loy; uvec2 hiy; uvec2 loz; uvec2 hiz; };
-struct GpuEmitter { uint tri; uint object; float prob; float cdf; vec3 radiance; float lum; };
+struct GpuEmitter { uint tri; uint object; float prob; float cdf; vec3 radiance; float lum; vec3 scale; uint texture; };
 struct Ray { vec4 o; vec4 d; };
 struct HitRecord { uint object; uint tri; float b1; float b2; };
 

@@ -70,7 +70,7 @@ pub fn render_with(
                             let s = scene.surface(&hit, ray.d);
                             let kd = s.albedo / std::f32::consts::PI;
                             // An emitter shows its own radiance (`Scene::emitted`).
-                            ds += kd * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s);
+                            ds += kd * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s, hit.b1, hit.b2);
                             is += kd * indirect(&s, (y * w + x) as u64 * spp as u64 + k as u64);
                         }
                         // A ray that leaves the scene sees the sky (`[sky]`; black without).

@@ -260,17 +260,18 @@ impl Builder {
     }
 
     /// The GPU materials: each MTL material checked (albedo below 1, a texture's mean
-    /// albedo too), its texture loaded once however many materials use it.
+    /// albedo too), its texture loaded once however many materials use it; and each
+    /// one's emission texture (or `NONE`), in the same table.
+    #[allow(clippy::type_complexity)]
     fn resolve_materials(
         &mut self,
         source: &Source,
         srgb: &[f32; 256],
         max_albedo: f32,
-    ) -> Result<(Vec<Material>, Vec<TextureInfo>, Vec<u32>)> {
-        let mut textures = Vec::new();
-        let mut texels = Vec::new();
-        let mut texture_paths: Vec<(PathBuf, u32)> = Vec::new();
+    ) -> Result<(Vec<Material>, Vec<u32>, Vec<TextureInfo>, Vec<u32>)> {
+        let mut table = TextureTable::default();
         let mut materials = Vec::new();
+        let mut emission_textures = Vec::new();
         let mut clamped: Vec<String> = Vec::new();
         for m in &self.materials {
             let mut kd = m.kd;
@@ -298,55 +299,17 @@ impl Builder {
                     NONE
                 }
                 Some(t) => {
-                    let k = match texture_paths.iter().position(|p| *p == (t.clone(), m.wrap)) {
-                        Some(k) => k as u32,
-                        None => {
-                            let shown = source.display(t);
-                            let read;
-                            let bytes: &[u8] = match &m.texture_data {
-                                Some(b) => b,
-                                None => {
-                                    self.report.inputs.push(shown.clone());
-                                    read = source.read(t)?;
-                                    &read
-                                }
-                            };
-                            // Sized from the header before decoding (a small PNG can
-                            // decode to gigabytes): the textures kept so far and this
-                            // one's decoding within the memory limit.
-                            if let Some((w, h)) = texture::dimensions(bytes) {
-                                let px = w as f64 * h as f64;
-                                self.limits.check(
-                                    &shown,
-                                    "texture",
-                                    &[
-                                        Part {
-                                            what: format!("{} earlier texels", texels.len()),
-                                            bytes: (texels.len() as u64 * texture::KEPT_BYTES_PER_PIXEL) as f64,
-                                        },
-                                        Part {
-                                            what: format!("decoding its {w}×{h} pixels"),
-                                            bytes: px * texture::DECODE_BYTES_PER_PIXEL as f64,
-                                        },
-                                    ],
-                                )?;
-                            }
-                            let (w, h, px) = texture::decode(bytes, &shown)?;
-                            let info = TextureInfo {
-                                offset: texels.len() as u32,
-                                width: w,
-                                height: h,
-                                wrap: m.wrap,
-                            };
-                            texels.extend(px);
-                            textures.push(info);
-                            texture_paths.push((t.clone(), m.wrap));
-                            (textures.len() - 1) as u32
-                        }
-                    };
+                    let k = table.load(
+                        &mut self.report.inputs,
+                        &self.limits,
+                        source,
+                        t,
+                        m.texture_data.as_deref(),
+                        m.wrap,
+                    )?;
                     // The texture's mean albedo under this material's factor: above
                     // `max_albedo`, the factor is scaled down to bring it there.
-                    let mean = texture::mean(&texels, &textures[k as usize], srgb) * Vec3::from(kd);
+                    let mean = texture::mean(&table.texels, &table.textures[k as usize], srgb) * Vec3::from(kd);
                     if mean.max_element() > max_albedo {
                         clamped.push(format!(
                             "`{}` (used by {}) mean albedo {:.3} of {} under Kd {kd:?}",
@@ -362,6 +325,17 @@ impl Builder {
                 }
             };
             materials.push(Material { kd, texture });
+            emission_textures.push(match &m.emission_texture {
+                Some(t) => table.load(
+                    &mut self.report.inputs,
+                    &self.limits,
+                    source,
+                    t,
+                    m.emission_texture_data.as_deref(),
+                    m.emission_wrap,
+                )?,
+                None => NONE,
+            });
         }
         if !clamped.is_empty() {
             let n = clamped.len();
@@ -373,7 +347,7 @@ impl Builder {
                 if n > 20 { "; …" } else { "" }
             ));
         }
-        Ok((materials, textures, texels))
+        Ok((materials, emission_textures, table.textures, table.texels))
     }
 
     pub(super) fn finish(
@@ -385,7 +359,8 @@ impl Builder {
         params: &SolverParams,
     ) -> Result<Scene> {
         let srgb = texture::srgb_table();
-        let (materials, textures, texels) = self.resolve_materials(source, &srgb, params.max_albedo)?;
+        let (materials, emission_textures, textures, texels) =
+            self.resolve_materials(source, &srgb, params.max_albedo)?;
         let uvs = if textures.is_empty() {
             Vec::new()
         } else {
@@ -418,7 +393,20 @@ impl Builder {
         let emitters = emitter::Emitters::new(
             &self.tris,
             &placed,
-            |t| emission[self.tris[t as usize].material as usize],
+            |t| {
+                let m = self.tris[t as usize].material as usize;
+                let (scale, tex) = (emission[m], emission_textures[m]);
+                let mean = if tex == NONE || scale == Vec3::ZERO {
+                    scale
+                } else {
+                    scale * texture::mean_over(&texels, &textures[tex as usize], &self.uvs[t as usize], &srgb)
+                };
+                emitter::Emission {
+                    mean,
+                    scale,
+                    texture: tex,
+                }
+            },
             params.emitter_samples,
             params.final_gather,
         );
@@ -433,6 +421,7 @@ impl Builder {
             cw,
             sky: None,
             emission,
+            emission_textures,
             emitters,
             path: path.into(),
             objects: self.objects,
@@ -452,6 +441,71 @@ impl Builder {
             scale,
             report: self.report,
         })
+    }
+}
+
+/// The scene's textures as they are loaded: each (file, wrap) decoded once.
+#[derive(Default)]
+struct TextureTable {
+    textures: Vec<TextureInfo>,
+    texels: Vec<u32>,
+    paths: Vec<(PathBuf, u32)>,
+}
+
+impl TextureTable {
+    /// The index of texture `t` (its bytes `data` where they are not a file of their own)
+    /// with wrap modes `wrap`, decoded on first use within the memory limit.
+    fn load(
+        &mut self,
+        inputs: &mut Vec<PathBuf>,
+        limits: &Limits,
+        source: &Source,
+        t: &Path,
+        data: Option<&[u8]>,
+        wrap: u32,
+    ) -> Result<u32> {
+        if let Some(k) = self.paths.iter().position(|p| p.0 == t && p.1 == wrap) {
+            return Ok(k as u32);
+        }
+        let shown = source.display(t);
+        let read;
+        let bytes: &[u8] = match data {
+            Some(b) => b,
+            None => {
+                inputs.push(shown.clone());
+                read = source.read(t)?;
+                &read
+            }
+        };
+        // Sized from the header before decoding (a small PNG can decode to gigabytes):
+        // the textures kept so far and this one's decoding within the memory limit.
+        if let Some((w, h)) = texture::dimensions(bytes) {
+            let px = w as f64 * h as f64;
+            limits.check(
+                &shown,
+                "texture",
+                &[
+                    Part {
+                        what: format!("{} earlier texels", self.texels.len()),
+                        bytes: (self.texels.len() as u64 * texture::KEPT_BYTES_PER_PIXEL) as f64,
+                    },
+                    Part {
+                        what: format!("decoding its {w}×{h} pixels"),
+                        bytes: px * texture::DECODE_BYTES_PER_PIXEL as f64,
+                    },
+                ],
+            )?;
+        }
+        let (w, h, px) = texture::decode(bytes, &shown)?;
+        self.textures.push(TextureInfo {
+            offset: self.texels.len() as u32,
+            width: w,
+            height: h,
+            wrap,
+        });
+        self.texels.extend(px);
+        self.paths.push((t.to_path_buf(), wrap));
+        Ok((self.textures.len() - 1) as u32)
     }
 }
 

@@ -120,8 +120,13 @@ impl Scene {
         let count = samples.min(self.emitters.most());
         if self.emitters.any() {
             let (mut sum, mut sum2) = (glam::DVec3::ZERO, glam::DVec3::ZERO);
-            self.emitters
-                .for_each_sample(&self.tris, emitter::Receiver { x, n, o }, seed, samples, |s| {
+            self.emitters.for_each_sample(
+                &self.tris,
+                emitter::Receiver { x, n, o },
+                seed,
+                samples,
+                |e, b1, b2| self.emitted_at(e.tri, b1, b2),
+                |s| {
                     if let Some(s) = s {
                         let ray = Ray { o, d: s.to_point };
                         if !self.occluded(&ray, crate::constants::SHADOW_TMAX) {
@@ -130,7 +135,8 @@ impl Scene {
                             sum2 += v * v;
                         }
                     }
-                });
+                },
+            );
             let (mean, err) = emitter::mean_and_error(sum, sum2, count);
             if mean.max_element() > 0.0 {
                 f(self.lights.len(), mean, err);
@@ -209,11 +215,29 @@ impl Scene {
     }
 
     /// The radiance a surface point sends toward the ray that found it by emitting: its
-    /// material's `L_e` on an emitting triangle's front, zero elsewhere.
-    pub fn emitted(&self, s: &Surface) -> Vec3 {
+    /// material's `L_e` (at the hit's barycentrics `(b1, b2)` where it is textured) on an
+    /// emitting triangle's front, zero elsewhere.
+    pub fn emitted(&self, s: &Surface, b1: f32, b2: f32) -> Vec3 {
         if s.back {
             return Vec3::ZERO;
         }
-        self.emission[self.tris[s.tri as usize].material as usize]
+        self.emitted_at(s.tri, b1, b2)
+    }
+
+    /// The radiance the front of global triangle `tri` emits at barycentrics `(b1, b2)`:
+    /// its material's emission times its emission texture there, if it has one.
+    pub fn emitted_at(&self, tri: u32, b1: f32, b2: f32) -> Vec3 {
+        let m = self.tris[tri as usize].material as usize;
+        let l = self.emission[m];
+        let t = self.emission_textures[m];
+        if t == crate::layout::NONE || l == Vec3::ZERO {
+            return l;
+        }
+        l * super::texture::sample(
+            &self.texels,
+            &self.textures[t as usize],
+            self.uv_at(tri, b1, b2),
+            &self.srgb,
+        )
     }
 }

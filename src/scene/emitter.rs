@@ -1,6 +1,8 @@
 //! Emissive surfaces (`ALGORITHM.md` §2.2): the triangles whose material emits (MTL
-//! `Ke`), as Mitsuba's `area` emitter: radiance `L_e` uniform over the surface, leaving
-//! its front (the side its winding normal points to) only. Their direct irradiance at a
+//! `Ke`, glTF `emissiveFactor`), as Mitsuba's `area` emitter: radiance `L_e` leaving
+//! its front (the side its winding normal points to) only, uniform over the surface or
+//! that factor times an emission texture (MTL `map_Ke`, glTF `emissiveTexture`) read
+//! per texel at each sample. Their direct irradiance at a
 //! point is estimated by sampling them: `emitter_samples` samples from a 3-D Halton set
 //! shifted per receiving point (so the estimate is deterministic and the same however the
 //! work is split), each a triangle and a direction uniform in its solid angle, with a
@@ -11,7 +13,7 @@ use glam::{DVec3, Vec2, Vec3};
 
 use crate::geom::sampling::uniform_triangle;
 use crate::geom::transform::{xform_point, Affine};
-use crate::layout::Tri;
+use crate::layout::{Tri, NONE};
 
 /// One emitting triangle.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -20,8 +22,22 @@ pub struct Emitter {
     pub tri: u32,
     /// Its object.
     pub object: u32,
-    /// Emitted radiance `L_e` (RGB).
+    /// Emitted radiance `L_e` (RGB), its mean over the triangle where it is textured: the
+    /// triangle's selection weight (power) follows it.
     pub radiance: Vec3,
+    /// The material's emission factor, and the emission texture it multiplies
+    /// (`layout::NONE` for none: then `L_e` is `radiance` everywhere on the triangle).
+    pub scale: Vec3,
+    pub texture: u32,
+}
+
+/// One emitting triangle's emission: its mean radiance, the factor and the texture (see
+/// [`Emitter`]); a mean of zero is no emitter.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emission {
+    pub mean: Vec3,
+    pub scale: Vec3,
+    pub texture: u32,
 }
 
 /// The scene's emitting triangles and how they are sampled.
@@ -116,24 +132,28 @@ fn world_tri(t: &Tri, to_world: &Affine) -> [Vec3; 3] {
 }
 
 impl Emitters {
-    /// The emitting triangles (`radiance(tri)`: the emission of a global triangle, zero
-    /// for none) of objects placed by `to_world` (with their global triangle ranges).
+    /// The emitting triangles (`emission(tri)`: the emission of a global triangle, a
+    /// zero mean for none) of objects placed by `to_world` (with their global triangle
+    /// ranges). A textured triangle whose mean is zero (all its texels black) is no
+    /// emitter: it costs nothing.
     pub fn new(
         tris: &[Tri],
         objects: &[(Affine, std::ops::Range<u32>)],
-        radiance: impl Fn(u32) -> Vec3,
+        emission: impl Fn(u32) -> Emission,
         samples: u32,
         probe_samples: u32,
     ) -> Emitters {
         let mut list = Vec::new();
         for (o, (_, range)) in objects.iter().enumerate() {
             for t in range.clone() {
-                let l = radiance(t);
-                if l.max_element() > 0.0 {
+                let e = emission(t);
+                if e.mean.max_element() > 0.0 {
                     list.push(Emitter {
                         tri: t,
                         object: o as u32,
-                        radiance: l,
+                        radiance: e.mean,
+                        scale: e.scale,
+                        texture: e.texture,
                     });
                 }
             }
@@ -222,6 +242,8 @@ impl Emitters {
                 cdf: self.cdf[k] as f32,
                 radiance: e.radiance.into(),
                 lum: luminance(e.radiance) as f32,
+                scale: e.scale.into(),
+                texture: e.texture,
             })
             .collect();
         let points = self
@@ -234,7 +256,8 @@ impl Emitters {
 
     /// Calls `f` with the first `count` samples for the receiving point `(x, n)` (world
     /// space; `o` the shadow rays' origin, `seed` the point's shift of the base set), the
-    /// zero ones included (they count in the mean).
+    /// zero ones included (they count in the mean). `textured(e, b1, b2)` is the emitted
+    /// radiance at barycentrics `(b1, b2)` of an emitter with a texture.
     ///
     /// A sample picks a triangle, then a direction uniformly within the solid angle the
     /// triangle subtends at `x` (Arvo 1995, as pbrt-v4's `SampleSphericalTriangle`): the
@@ -249,6 +272,7 @@ impl Emitters {
         at: Receiver,
         seed: u64,
         count: usize,
+        textured: impl Fn(&Emitter, f32, f32) -> Vec3,
         mut f: impl FnMut(Option<EmitterSample>),
     ) {
         let Receiver { x, n, o } = at;
@@ -293,30 +317,29 @@ impl Emitters {
                 (k, self.prob[k])
             };
             let v = corners(k);
-            f(sample_triangle(
-                &v,
-                self.list[k].radiance,
-                prob,
-                xd,
-                n.as_dvec3(),
-                o,
-                [u[1], u[2]],
-            ));
+            let e = &self.list[k];
+            f(
+                sample_triangle(&v, prob, xd, n.as_dvec3(), [u[1], u[2]]).map(|(y, weight, b)| {
+                    let l = if e.texture == NONE {
+                        e.radiance
+                    } else {
+                        textured(e, b[0], b[1])
+                    };
+                    EmitterSample {
+                        value: (l.as_dvec3() * weight).as_vec3(),
+                        to_point: y.as_vec3() - o,
+                    }
+                }),
+            );
         }
     }
 }
 
-/// One sample of triangle `v` (world corners, emitting `l` from its front, picked with
-/// probability `prob`) seen from `x` (normal `n`, shadow rays from `o`).
-fn sample_triangle(
-    v: &[DVec3; 3],
-    l: Vec3,
-    prob: f64,
-    x: DVec3,
-    n: DVec3,
-    o: Vec3,
-    u: [f64; 2],
-) -> Option<EmitterSample> {
+/// One sample of triangle `v` (world corners, emitting from its front, picked with
+/// probability `prob`) seen from `x` (normal `n`): the point sampled, the geometry term
+/// over the sampling density (what multiplies the radiance there), and the point's
+/// barycentrics (where a texture is read).
+fn sample_triangle(v: &[DVec3; 3], prob: f64, x: DVec3, n: DVec3, u: [f64; 2]) -> Option<(DVec3, f64, [f32; 2])> {
     if prob <= 0.0 {
         return None;
     }
@@ -334,7 +357,7 @@ fn sample_triangle(
     } else {
         None
     };
-    let (y, weight) = match spherical {
+    let (y, weight, b) = match spherical {
         // Uniform in the solid angle: 1/pdf = Ω; the point where the direction meets
         // the triangle's plane.
         Some((w, omega)) => {
@@ -346,7 +369,8 @@ fn sample_triangle(
             if c <= 0.0 {
                 return None;
             }
-            (x + w * t, c * omega / prob)
+            let y = x + w * t;
+            (y, c * omega / prob, barycentrics(v, cross, y))
         }
         // A triangle too small for the spherical construction: a point by area.
         None => {
@@ -359,13 +383,20 @@ fn sample_triangle(
             if d2.is_nan() || d2 <= 0.0 || cx <= 0.0 || ce <= 0.0 {
                 return None;
             }
-            (y, cx * ce / d2 * 0.5 * cross.length() / prob)
+            (y, cx * ce / d2 * 0.5 * cross.length() / prob, [b1, b2])
         }
     };
-    Some(EmitterSample {
-        value: (l.as_dvec3() * weight).as_vec3(),
-        to_point: y.as_vec3() - o,
-    })
+    Some((y, weight, b))
+}
+
+/// The barycentrics `(b1, b2)` of a point `y` in the plane of triangle `v` (`cross` its
+/// edges' cross product), brought into the triangle.
+fn barycentrics(v: &[DVec3; 3], cross: DVec3, y: DVec3) -> [f32; 2] {
+    let (e1, e2, p) = (v[1] - v[0], v[2] - v[0], y - v[0]);
+    let n2 = cross.length_squared();
+    let b1 = (p.cross(e2).dot(cross) / n2).clamp(0.0, 1.0);
+    let b2 = (e1.cross(p).dot(cross) / n2).clamp(0.0, 1.0 - b1);
+    [b1 as f32, b2 as f32]
 }
 
 /// Triangles subtending less than this solid angle (sr) are sampled by area.

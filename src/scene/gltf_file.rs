@@ -9,14 +9,15 @@
 //!   triangles;
 //! - albedo `baseColorFactor` × `baseColorTexture` (sRGB, the sampler's wrap modes, glTF's
 //!   v-down uv turned to our v-up), emission `emissiveFactor` ×
-//!   `KHR_materials_emissive_strength` as radiance (W/(m²·sr), like MTL `Ke`);
+//!   `KHR_materials_emissive_strength` × `emissiveTexture` (sRGB, per texel) as radiance
+//!   (W/(m²·sr), like MTL `Ke` × `map_Ke`);
 //! - `KHR_lights_punctual` lights, photometric units turned radiometric at
 //!   [`LUMENS_PER_WATT`]: candela / 683 = W/sr, lux / 683 = W/m² (Blender's glTF exporter's
 //!   "standard" convention);
 //! - the first perspective camera met in the node tree.
 //!
-//! What it does not use (skins, morph targets, point and line primitives, emissive
-//! textures, orthographic cameras, light ranges, unknown extensions) is named in one note.
+//! What it does not use (skins, morph targets, point and line primitives, orthographic
+//! cameras, light ranges, unknown extensions) is named in one note.
 
 use std::collections::{BTreeMap, HashSet};
 use std::path::{Path, PathBuf};
@@ -340,7 +341,14 @@ impl Input<'_> {
         let mut tex_sets: Vec<Option<u32>> = Vec::new();
         for m in doc.materials() {
             let md = self.material(doc, &m, buffers, &mut mesh.inputs, unsupported)?;
-            tex_sets.push(m.pbr_metallic_roughness().base_color_texture().map(|t| t.tex_coord()));
+            // The base colour's set, else the emissive texture's (one set per triangle).
+            let base = m.pbr_metallic_roughness().base_color_texture().map(|t| t.tex_coord());
+            let emissive = md
+                .emission_texture
+                .as_ref()
+                .and(m.emissive_texture())
+                .map(|t| t.tex_coord());
+            tex_sets.push(base.or(emissive));
             mesh.materials.push(md);
         }
         Ok(tex_sets)
@@ -388,22 +396,25 @@ impl Input<'_> {
             )));
         }
         md.emission = e;
-        if m.emissive_texture().is_some() {
-            *unsupported
-                .entry("emissive textures (the emission is the factor alone)")
-                .or_default() += 1;
+        if let Some(info) = m.emissive_texture().filter(|_| e.iter().any(|&c| c > 0.0)) {
+            let tex = info.texture();
+            let (path, data) = self.image(doc, &tex.source(), buffers, inputs, &at)?;
+            md.emission_texture = Some(path);
+            md.emission_texture_data = data;
+            md.emission_wrap = wrap_modes(&tex);
+            let base = pbr.base_color_texture().map(|t| t.tex_coord());
+            if base.is_some_and(|b| b != info.tex_coord()) {
+                *unsupported
+                    .entry("an emissive texture on another TEXCOORD set than the base colour's (it reads the base colour's)")
+                    .or_default() += 1;
+            }
         }
         if let Some(info) = pbr.base_color_texture() {
             let tex = info.texture();
             let (path, data) = self.image(doc, &tex.source(), buffers, inputs, &at)?;
             md.texture = Some(path);
             md.texture_data = data;
-            let mode = |w: WrappingMode| match w {
-                WrappingMode::ClampToEdge => WRAP_CLAMP,
-                WrappingMode::MirroredRepeat => WRAP_MIRROR,
-                WrappingMode::Repeat => WRAP_REPEAT,
-            };
-            md.wrap = mode(tex.sampler().wrap_s()) | mode(tex.sampler().wrap_t()) << 2;
+            md.wrap = wrap_modes(&tex);
         }
         Ok(md)
     }
@@ -1107,4 +1118,14 @@ fn percent_decode(uri: &str) -> String {
         i += 1;
     }
     String::from_utf8_lossy(&out).into_owned()
+}
+
+/// A glTF texture's sampler wrap modes as `TextureInfo::wrap` (u in bits 0–1, v in 2–3).
+fn wrap_modes(tex: &::gltf::Texture) -> u32 {
+    let mode = |w: WrappingMode| match w {
+        WrappingMode::ClampToEdge => WRAP_CLAMP,
+        WrappingMode::MirroredRepeat => WRAP_MIRROR,
+        WrappingMode::Repeat => WRAP_REPEAT,
+    };
+    mode(tex.sampler().wrap_s()) | mode(tex.sampler().wrap_t()) << 2
 }

@@ -113,8 +113,11 @@ pub struct Scene {
     pub texels: Vec<u32>,
     pub srgb: [f32; 256],
     /// Emitted radiance per material (zero where none, or where its object's `emission`
-    /// is false).
+    /// is false): the factor that multiplies its emission texture where it has one.
     pub emission: Vec<Vec3>,
+    /// Each material's emission texture (MTL `map_Ke`, glTF `emissiveTexture`), or
+    /// `layout::NONE`.
+    pub emission_textures: Vec<u32>,
     /// The emitting triangles and how they are sampled.
     pub emitters: emitter::Emitters,
     /// `[sky]`: radiance from every direction that leaves the scene.

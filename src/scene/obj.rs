@@ -35,6 +35,11 @@ pub struct MtlData {
     pub emission: [f32; 3],
     /// The line of its `Ke` (for messages).
     pub ke_line: Option<usize>,
+    /// `map_Ke` (glTF `emissiveTexture`): the emission is `emission` times it, per
+    /// texel; its bytes where they are not a file of their own, and its wrap modes.
+    pub emission_texture: Option<PathBuf>,
+    pub emission_texture_data: Option<std::sync::Arc<[u8]>>,
+    pub emission_wrap: u32,
     /// The file it was defined in and the line of its `Kd` (for messages).
     pub origin: PathBuf,
     pub kd_line: Option<usize>,
@@ -55,6 +60,9 @@ impl MtlData {
             uv_scale: [1.0; 2],
             emission: [0.0; 3],
             ke_line: None,
+            emission_texture: None,
+            emission_texture_data: None,
+            emission_wrap: 0,
             origin,
             kd_line: None,
             used_by: PathBuf::new(),
@@ -479,7 +487,7 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
             continue;
         }
         let is_colour = matches!(key, "Ka" | "Kd" | "Ks" | "Ke" | "Tf");
-        let is_map = key == "map_Kd";
+        let is_map = key == "map_Kd" || key == "map_Ke";
         if !is_colour && !is_map {
             continue;
         }
@@ -521,6 +529,17 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
                 }
                 _ => {}
             }
+        } else if key == "map_Ke" {
+            // The emission texture reads the uvs `map_Kd` gives (its own -o/-s too would
+            // need a second set per triangle).
+            let (file, o, s, ignored) = map_options(args).map_err(err)?;
+            cur.emission_texture = Some(dir.join(file.replace('\\', "/")));
+            if o != [0.0; 2] || s != [1.0; 2] || !ignored.is_empty() {
+                notes.push(format!(
+                    "{}:{line}: map_Ke options ignored (the emission texture reads the uvs map_Kd gives)",
+                    shown.display()
+                ));
+            }
         } else {
             let (file, o, s, ignored) = map_options(args).map_err(err)?;
             cur.texture = Some(dir.join(file.replace('\\', "/")));
@@ -534,6 +553,18 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
                 ));
             }
         }
+    }
+    // `map_Ke` with no `Ke`: the texture is the emission (a factor of 1).
+    for m in out
+        .iter_mut()
+        .filter(|m| m.emission_texture.is_some() && m.ke_line.is_none())
+    {
+        m.emission = [1.0; 3];
+        notes.push(format!(
+            "{}: material `{}` has map_Ke but no Ke: its emission is the texture (Ke 1 1 1)",
+            shown.display(),
+            m.name
+        ));
     }
     Ok((out, notes))
 }

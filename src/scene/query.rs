@@ -215,13 +215,23 @@ impl Scene {
         if m.texture == NONE {
             return kd;
         }
+        kd * texture::sample(
+            &self.texels,
+            &self.textures[m.texture as usize],
+            self.uv_at(tri, b1, b2),
+            &self.srgb,
+        )
+    }
+
+    /// The texture coordinates at barycentrics `(b1, b2)` of global triangle `tri` (a
+    /// scene with a texture).
+    pub fn uv_at(&self, tri: u32, b1: f32, b2: f32) -> Vec2 {
         let uv = &self.uvs[tri as usize].uv;
         let b0 = 1.0 - b1 - b2;
-        let u = Vec2::new(
+        Vec2::new(
             uv[0] * b0 + uv[2] * b1 + uv[4] * b2,
             uv[1] * b0 + uv[3] * b1 + uv[5] * b2,
-        );
-        kd * texture::sample(&self.texels, &self.textures[m.texture as usize], u, &self.srgb)
+        )
     }
 
     /// The shadow-ray origin for a world-space surface point.
