@@ -121,6 +121,45 @@ pub fn furnace(dir: &Path, r: f64, subdiv: u32, rho: f64, light: [f64; 3], i: f6
     )
 }
 
+/// A low-poly sphere of radius `r` (`subdiv` subdivisions of the icosahedron, facing out,
+/// albedo 0.5) under a directional light of irradiance 1 travelling down −y: a point of
+/// the true sphere with normal `n` gets `E_d = max(0, n_y)`, and nothing else (a convex
+/// object lights nothing of itself). With `normals`, every vertex carries the sphere's
+/// normal there (`vn`, `f v//vn`): what the smooth shading normals interpolate. Returns
+/// the scene file's path; `solver` is appended to its `[solver]` table.
+pub fn lit_sphere(dir: &Path, r: f64, subdiv: u32, normals: bool, solver: &str) -> Result<PathBuf> {
+    let (v, f) = icosphere(r, subdiv);
+    let mut obj = String::from("mtllib sphere.mtl\nusemtl grey\n");
+    for p in &v {
+        let _ = writeln!(obj, "v {} {} {}", p[0], p[1], p[2]);
+        if normals {
+            let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+            let _ = writeln!(obj, "vn {} {} {}", p[0] / l, p[1] / l, p[2] / l);
+        }
+    }
+    for t in &f {
+        let [a, b, c] = t.map(|i| i + 1);
+        let _ = if normals {
+            writeln!(obj, "f {a}//{a} {b}//{b} {c}//{c}")
+        } else {
+            writeln!(obj, "f {a} {b} {c}")
+        };
+    }
+    write(dir, "sphere.obj", &obj)?;
+    write(dir, "sphere.mtl", "newmtl grey\nKd 0.5 0.5 0.5\n")?;
+    write(
+        dir,
+        "sphere.toml",
+        &format!(
+            "[[object]]\nmesh = \"sphere.obj\"\n\n[[light]]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\n\
+             irradiance = [1.0, 1.0, 1.0]\n\n[camera]\nposition = [0.0, {cy}, {cz}]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 40.0\nwidth = 64\nheight = 64\n\n[solver]\n{solver}\n",
+            cy = 2.0 * r,
+            cz = 3.0 * r
+        ),
+    )
+}
+
 /// Closed-form furnace answers: `(E_d for a centred light, E_ind after k bounces,
 /// bounce k alone)`.
 pub fn furnace_expected(r: f64, rho: f64, i: f64, k: u32) -> (f64, f64, f64) {

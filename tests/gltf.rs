@@ -530,7 +530,10 @@ fn emissive_textures_multiply_the_factor_per_texel() {
         (0.9, 0.9, Vec3::splat(3.0)),
     ] {
         let got = at(x, z);
-        assert!((got - want).abs().max_element() < 1e-5, "at ({x}, {z}): {got}, want {want}");
+        assert!(
+            (got - want).abs().max_element() < 1e-5,
+            "at ({x}, {z}): {got}, want {want}"
+        );
     }
     // The default emissiveFactor is zero: the texture alone emits nothing.
     d.json["materials"][0] = json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]},
@@ -539,6 +542,43 @@ fn emissive_textures_multiply_the_factor_per_texel() {
     let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
     let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[]);
     assert_eq!(s.report.emitting_triangles, 0);
+}
+
+/// Issue #34: `NORMAL` is read as the shading normal, placed by the inverse transpose of
+/// the node matrix (a non-uniform scale tilts it the other way from the positions).
+#[test]
+fn vertex_normals_follow_the_inverse_transpose_of_the_node_matrix() {
+    let dir = common::tmpdir();
+    let (p, _) = quad();
+    let mut d = Doc::default();
+    let pos = d.floats(&p, "VEC3");
+    let nrm = d.floats(&[0.6f32, 0.8, 0.0].repeat(6), "VEC3");
+    let m = d.push(
+        "materials",
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, 1.0]}}),
+    );
+    let mesh = d.push(
+        "meshes",
+        json!({"primitives": [{"attributes": {"POSITION": pos, "NORMAL": nrm}, "material": m}]}),
+    );
+    let n = d.push("nodes", json!({"mesh": mesh, "scale": [2.0, 1.0, 1.0]}));
+    d.json["scenes"][0]["nodes"] = json!([n]);
+    let g = d.write(dir.path(), "tilted", Layout::External);
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[]);
+    let d = -Vec3::Y;
+    let hit = s
+        .intersect(
+            &meshrad::geom::Ray {
+                o: Vec3::new(1.0, 2.0, 0.5),
+                d,
+            },
+            f32::INFINITY,
+        )
+        .expect("the quad is below");
+    let got = s.surface(&hit, d).n;
+    let want = Vec3::new(0.3, 0.8, 0.0).normalize();
+    assert!((got - want).length() < 1e-5, "{got} against {want}");
 }
 
 /// Issue #35: a non-unit rotation quaternion is normalised with a note (it scaled and

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Issue #34's DamagedHelmet check: the helmet's emission on (emissiveFactor 1 × its
 # emissive mask texture) against emission off, under a sky and a sun, on the CPU; the
-# mean image brightness of each (EXR, linear), the share of saturated PNG pixels (any
-# channel at 255), the emitting triangles, and the wall time.
+# mean image brightness of each (EXR, linear), the share of pixels that are white at
+# --exposure 0 and of saturated PNG pixels, the emitting triangles, and the wall time
+# (image_stats.py).
 # Usage: bash experiments/assets/helmet.sh HELMET.glb OUT_DIR BIN|COMMIT...
 # HELMET.glb: Khronos' DamagedHelmet (CC-BY 4.0; `scenes/fetch.sh` names where to get it).
 set -euo pipefail
@@ -42,18 +43,6 @@ for b in "$@"; do
     start=$(date +%s.%N)
     "$bin" solve "$out/helmet_$e.toml" --backend cpu --out "$d" > "$d.log" 2>&1 || { echo "$tag $e failed: see $d.log"; continue; }
     end=$(date +%s.%N)
-    python3 - "$d" "$tag" "$e" "$(echo "$end - $start" | bc)" <<'P'
-import sys, json, numpy as np, OpenEXR, Imath
-from PIL import Image
-d, tag, e, wall = sys.argv[1:]
-f = OpenEXR.InputFile(f"{d}/total.exr"); dw = f.header()['dataWindow']
-w, h = dw.max.x - dw.min.x + 1, dw.max.y - dw.min.y + 1
-rgb = np.stack([np.frombuffer(f.channel(c, Imath.PixelType(Imath.PixelType.FLOAT)), np.float32) for c in "RGB"], 1)
-png = np.asarray(Image.open(f"{d}/total.png").convert("RGB"))
-sat = (png.max(axis=2) == 255).mean()
-st = json.load(open(f"{d}/stats.json"))
-em = st["scene"]["load"]["emitting_triangles"]
-print(f"{tag} emission {e}: mean EXR {rgb.mean():.5f}, saturated PNG pixels {100*sat:.2f} %, emitting triangles {em}, wall {float(wall):.1f} s")
-P
+    python3 "$root/experiments/assets/image_stats.py" "$d" "$tag emission $e" "$(echo "$end - $start" | bc)"
   done
 done | tee -a "$out/results.txt"

@@ -126,6 +126,7 @@ fn free_path(scene: &Scene, p: &SolverParams, sides: &[bool], areas: &[f64], ray
         let r = o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize;
         let cands = poisson::candidates(
             &scene.tris[r.clone()],
+            &[],
             &sides[r.start * 2..r.end * 2],
             count,
             (p.seed as u64) << 32 | 0x8000_0000 | i as u64,
@@ -162,6 +163,7 @@ pub(super) fn candidate_pools(scene: &Scene, p: &SolverParams, sides: &[bool], d
             let count = (want as u64).min(p.max_candidates as u64) as usize;
             poisson::candidates(
                 &scene.tris[r.clone()],
+                scene.normals.get(r.clone()).unwrap_or(&[]),
                 &sides[r.start * 2..r.end * 2],
                 count,
                 (p.seed as u64) << 32 | i as u64,

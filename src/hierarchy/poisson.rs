@@ -18,8 +18,10 @@ pub struct Candidate {
     pub normal: Vec3,
 }
 
-/// `count` candidates on the reachable sides (`sides[2t + back]`) of `tris`.
-pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<Candidate> {
+/// `count` candidates on the reachable sides (`sides[2t + back]`) of `tris`; where
+/// `normals` (corner normals per triangle, or empty) gives a triangle some, a candidate's
+/// normal is the shading normal there (`scene::interpolate_normal`), on its side.
+pub fn candidates(tris: &[Tri], normals: &[[f32; 9]], sides: &[bool], count: usize, seed: u64) -> Vec<Candidate> {
     let mut cdf = Vec::new();
     let mut which = Vec::new();
     let mut total = 0.0f64;
@@ -68,8 +70,14 @@ pub fn candidates(tris: &[Tri], sides: &[bool], count: usize, seed: u64) -> Vec<
         .for_each(|(c, out)| {
             let mut rng = Rng::new(seed, c as u64);
             for o in out {
-                let (t, normal) = which[side(rng.next_f64() * total)];
+                let (t, mut normal) = which[side(rng.next_f64() * total)];
                 let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
+                if let Some(c) = normals.get(t) {
+                    let front = tri_normal(&tris[t]);
+                    if let Some(ns) = crate::scene::interpolate_normal(c, front, b1, b2) {
+                        normal = if normal.dot(front) < 0.0 { -ns } else { ns };
+                    }
+                }
                 o.write(Candidate {
                     pos: tri_point(&tris[t], b1, b2),
                     normal,

@@ -24,6 +24,8 @@ pub(super) struct Builder {
     pub(super) objects: Vec<SceneObject>,
     pub(super) tris: Vec<Tri>,
     pub(super) uvs: Vec<[f32; 6]>,
+    /// Corner normals per triangle (object space), empty until an object has some.
+    pub(super) normals: Vec<[f32; 9]>,
     pub(super) bvh: Vec<BvhNode>,
     pub(super) materials: Vec<obj::MtlData>,
     /// Whether each material's object lets it emit.
@@ -59,8 +61,22 @@ impl Builder {
             t.material += mat_base;
         }
         let has_uv = !mesh.uvs.is_empty();
-        let mut uvs = mesh.uvs;
-        let mut nodes = bvh::build(&mut mesh.tris, &mut uvs, &e.mesh)?;
+        let has_normals = !mesh.normals.is_empty() && e.smooth_normals.unwrap_or(true);
+        // The uvs and normals follow the triangles' reordering.
+        let mut corners: Vec<([f32; 6], [f32; 9])> = if has_uv || has_normals {
+            (0..mesh.tris.len())
+                .map(|t| {
+                    (
+                        mesh.uvs.get(t).copied().unwrap_or_default(),
+                        if has_normals { mesh.normals[t] } else { [0.0; 9] },
+                    )
+                })
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let mut nodes = bvh::build(&mut mesh.tris, &mut corners, &e.mesh)?;
+        let (uvs, normals): (Vec<[f32; 6]>, Vec<[f32; 9]>) = corners.into_iter().unzip();
         let tri_offset = self.tris.len() as u32;
         let node_offset = self.bvh.len() as u32;
         bvh::rebase(&mut nodes, node_offset, tri_offset);
@@ -95,6 +111,12 @@ impl Builder {
             self.uvs.extend(uvs);
         }
         self.uvs.resize(tri_offset as usize + n, [0.0; 6]);
+        if has_normals {
+            self.normals.resize(tri_offset as usize, [0.0; 9]);
+            self.normals.extend(normals);
+        } else if !self.normals.is_empty() {
+            self.normals.resize(tri_offset as usize + n, [0.0; 9]);
+        }
         self.bvh.extend(nodes);
         self.material_emits.extend(mesh.materials.iter().map(|_| emits));
         self.materials.extend(mesh.materials);
@@ -245,9 +267,10 @@ impl Builder {
         })?;
         tris_bytes(format!("{} in {}", mesh.tris.len(), e.mesh), mesh.tris.len() as f64)?;
         for _ in 0..tess {
-            let (t, u) = obj::tessellate(&mesh.tris, &mesh.uvs);
+            let (t, u, n) = obj::tessellate(&mesh.tris, &mesh.uvs, &mesh.normals);
             mesh.tris = t;
             mesh.uvs = u;
+            mesh.normals = n;
         }
         if mesh.tris.is_empty() {
             return Err(Error::Mesh {
@@ -417,6 +440,10 @@ impl Builder {
             .map(|o| o.tri_offset as usize..(o.tri_offset + o.tri_count) as usize)
             .collect();
         let cw = bvh::CwForest::build(&self.tris, &ranges);
+        let mut normals = std::mem::take(&mut self.normals);
+        if !normals.is_empty() {
+            normals.resize(self.tris.len(), [0.0; 9]);
+        }
         Ok(Scene {
             cw,
             sky: None,
@@ -427,6 +454,7 @@ impl Builder {
             objects: self.objects,
             tris: self.tris,
             uvs,
+            normals,
             bvh: self.bvh,
             materials,
             material_names: self.materials.iter().map(|m| m.name.clone()).collect(),

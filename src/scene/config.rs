@@ -56,6 +56,10 @@ pub struct ObjectEntry {
     /// Whether its materials' emission (MTL `Ke`) lights the scene (default true); false:
     /// the emitting faces are plain diffuse surfaces.
     pub emission: Option<bool>,
+    /// Whether the mesh's vertex normals (OBJ `vn`, glTF `NORMAL`), where it has them,
+    /// shade it (default true): interpolated for the cosine at pixels, nodes and path
+    /// vertices. False: every triangle is flat.
+    pub smooth_normals: Option<bool>,
 }
 
 /// One group name or several.

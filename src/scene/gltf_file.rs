@@ -144,16 +144,20 @@ pub fn load_within(
         default_material,
         unsupported: &mut unsupported,
         any_uv: false,
+        any_normal: false,
         selected: groups.map(|g| g.to_vec()),
         found: HashSet::new(),
     };
     for n in &roots {
         walk.node(n, Mat4::IDENTITY, 0, groups.is_none()).map_err(err)?;
     }
-    let any_uv = walk.any_uv;
+    let (any_uv, any_normal) = (walk.any_uv, walk.any_normal);
     input.check_groups(doc, groups, &walk.found)?;
     if !any_uv {
         out.mesh.uvs.clear();
+    }
+    if !any_normal {
+        out.mesh.normals.clear();
     }
     if out.mesh.unassigned > 0 {
         out.mesh.materials.push(MtlData {
@@ -558,6 +562,7 @@ struct Walk<'a> {
     default_material: u32,
     unsupported: &'a mut BTreeMap<&'static str, usize>,
     any_uv: bool,
+    any_normal: bool,
     /// `group`: only these nodes' subtrees.
     selected: Option<Vec<String>>,
     found: HashSet<String>,
@@ -778,6 +783,26 @@ impl Walk<'_> {
             None => (self.default_material, None),
         };
         let uv = self.primitive_uvs(p, set, material, nv, at)?;
+        // Vertex normals, placed by the inverse transpose of the node matrix.
+        let normals = match p.get(&::gltf::Semantic::Normals) {
+            Some(acc) => {
+                let n = floats(self.buffers, &acc, 3, false).map_err(|e| format!("{at}.attributes.NORMAL: {e}"))?;
+                if n.len() != pos.len() {
+                    return Err(format!(
+                        "{at}.attributes.NORMAL: has {} elements, POSITION {nv}",
+                        n.len() / 3
+                    ));
+                }
+                let nm = glam::Mat3::from_mat4(*m).inverse().transpose();
+                Some(
+                    n.chunks_exact(3)
+                        .map(|v| nm * Vec3::new(v[0], v[1], v[2]))
+                        .collect::<Vec<_>>(),
+                )
+            }
+            None => None,
+        };
+        self.any_normal |= normals.is_some();
         let corners = triangle_corners(mode, &index);
         // A mirroring matrix turns the winding; the specification keeps the front face.
         let flip = m.determinant() < 0.0;
@@ -828,6 +853,10 @@ impl Walk<'_> {
                 }
             }
             self.out.mesh.uvs.push(t);
+            self.out.mesh.normals.push(match &normals {
+                Some(n) => super::obj::corner_normals(&tri, c.map(|i| n[i as usize])),
+                None => [0.0; 9],
+            });
         }
         Ok(())
     }

@@ -22,6 +22,7 @@ mod builder;
 mod direct;
 pub(crate) mod memory;
 mod query;
+pub use query::interpolate_normal;
 
 use std::path::PathBuf;
 
@@ -102,6 +103,9 @@ pub struct Scene {
     pub tris: Vec<Tri>,
     /// Per-triangle uvs; empty when no material is textured.
     pub uvs: Vec<TriUv>,
+    /// Per-triangle corner normals in object space (OBJ `vn`, glTF `NORMAL`), unit, on the
+    /// front; zero for a flat triangle; empty when no object has any (`Scene::shading_normal`).
+    pub normals: Vec<[f32; 9]>,
     pub bvh: Vec<BvhNode>,
     /// Every object's CWBVH over the same triangles: what the CPU's rays traverse
     /// ([`bvh::trace_cw`]) and the GPU's by default; the BVH2 serves box queries and the

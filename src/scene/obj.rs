@@ -76,6 +76,9 @@ pub struct LoadedMesh {
     pub tris: Vec<Tri>,
     /// Corner uvs per triangle (empty when the file has none).
     pub uvs: Vec<[f32; 6]>,
+    /// Corner normals per triangle, unit, on its front (empty when the file has none;
+    /// zero for a triangle without them).
+    pub normals: Vec<[f32; 9]>,
     pub materials: Vec<MtlData>,
     pub degenerate: usize,
     /// Faces without a material (given a default grey).
@@ -263,10 +266,13 @@ fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
     let mut seen = std::collections::HashSet::new();
     let default_material = out.materials.len() as u32;
     let mut any_uv = false;
+    let mut any_normal = false;
     for model in models {
         let m = &model.mesh;
         let has_uv = !m.texcoords.is_empty() && m.texcoord_indices.len() == m.indices.len();
         any_uv |= has_uv;
+        let has_normal = !m.normals.is_empty() && m.normal_indices.len() == m.indices.len();
+        any_normal |= has_normal;
         let material = match m.material_id {
             Some(id) if id < out.materials.len() => id as u32,
             _ => {
@@ -303,10 +309,36 @@ fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
                 }
             }
             out.uvs.push(uv);
+            let mut nc = [0.0f32; 9];
+            if has_normal {
+                let corners: [Vec3; 3] = std::array::from_fn(|c| {
+                    let k = m.normal_indices[f * 3 + c] as usize * 3;
+                    Vec3::new(m.normals[k], m.normals[k + 1], m.normals[k + 2])
+                });
+                nc = corner_normals(&tri, corners);
+            }
+            out.normals.push(nc);
         }
     }
     if !any_uv {
         out.uvs.clear();
+    }
+    if !any_normal {
+        out.normals.clear();
+    }
+}
+
+/// A triangle's corner normals as kept: each made unit and on the triangle's front (the
+/// side its winding normal points to); all zero (flat) when one is zero or not finite, or
+/// when none of them lies on the front (normals that contradict the winding).
+pub fn corner_normals(tri: &Tri, n: [Vec3; 3]) -> [f32; 9] {
+    let front = crate::geom::ray::tri_normal(tri);
+    let unit: Option<Vec<Vec3>> = n.iter().map(|v| v.try_normalize().filter(|u| u.is_finite())).collect();
+    match unit {
+        Some(u) if u.iter().any(|v| v.dot(front) > 0.0) => {
+            [u[0].x, u[0].y, u[0].z, u[1].x, u[1].y, u[1].z, u[2].x, u[2].y, u[2].z]
+        }
+        _ => [0.0; 9],
     }
 }
 
@@ -701,10 +733,12 @@ pub fn is_degenerate(t: &Tri) -> bool {
     !(c.is_finite() && scale.is_finite()) || c <= 1e-12 * scale
 }
 
-/// Splits every triangle into four at its edge midpoints.
-pub fn tessellate(tris: &[Tri], uvs: &[[f32; 6]]) -> (Vec<Tri>, Vec<[f32; 6]>) {
+/// Splits every triangle into four at its edge midpoints, with its corner uvs and
+/// normals (midpoints of the corners'; the normals are made unit where they are read).
+pub fn tessellate(tris: &[Tri], uvs: &[[f32; 6]], normals: &[[f32; 9]]) -> (Vec<Tri>, Vec<[f32; 6]>, Vec<[f32; 9]>) {
     let mut out = Vec::with_capacity(tris.len() * 4);
     let mut out_uv = Vec::with_capacity(uvs.len() * 4);
+    let mut out_n = Vec::with_capacity(normals.len() * 4);
     for (i, t) in tris.iter().enumerate() {
         let v = [Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2)];
         let m = [(v[0] + v[1]) * 0.5, (v[1] + v[2]) * 0.5, (v[2] + v[0]) * 0.5];
@@ -730,8 +764,18 @@ pub fn tessellate(tris: &[Tri], uvs: &[[f32; 6]]) -> (Vec<Tri>, Vec<[f32; 6]>) {
             out_uv.push(pack(ca, bc, cc));
             out_uv.push(pack(ab, bc, ca));
         }
+        if let Some(n) = normals.get(i) {
+            let c = |k: usize| Vec3::new(n[3 * k], n[3 * k + 1], n[3 * k + 2]);
+            let (a, b, cc) = (c(0), c(1), c(2));
+            let (ab, bc, ca) = ((a + b) * 0.5, (b + cc) * 0.5, (cc + a) * 0.5);
+            let pack = |p: Vec3, q: Vec3, r: Vec3| [p.x, p.y, p.z, q.x, q.y, q.z, r.x, r.y, r.z];
+            out_n.push(pack(a, ab, ca));
+            out_n.push(pack(ab, b, bc));
+            out_n.push(pack(ca, bc, cc));
+            out_n.push(pack(ab, bc, ca));
+        }
     }
-    (out, out_uv)
+    (out, out_uv, out_n)
 }
 
 #[cfg(test)]
@@ -818,7 +862,7 @@ mod tests {
             v2: [0.0, 1.0, 0.0],
             ..Default::default()
         };
-        let (out, _) = tessellate(&[t], &[]);
+        let (out, _, _) = tessellate(&[t], &[], &[]);
         let area: f32 = out
             .iter()
             .map(|t| {
@@ -828,5 +872,42 @@ mod tests {
             .sum();
         assert_eq!(out.len(), 4);
         assert!((area - 0.5).abs() < 1e-6);
+    }
+
+    /// The corner normals split with the triangle: at every new triangle's corners, the
+    /// normals interpolated over the old one there.
+    #[test]
+    fn tessellation_splits_the_corner_normals() {
+        let t = Tri {
+            v0: [0.0; 3],
+            v1: [1.0, 0.0, 0.0],
+            v2: [0.0, 1.0, 0.0],
+            ..Default::default()
+        };
+        let n = corner_normals(
+            &t,
+            [
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(1.0, 0.0, 1.0),
+                Vec3::new(0.0, 1.0, 1.0),
+            ],
+        );
+        let at = |p: Vec3| {
+            // Barycentrics of p in the unit right triangle: (b1, b2) = (x, y).
+            let c = |k: usize| Vec3::new(n[3 * k], n[3 * k + 1], n[3 * k + 2]);
+            c(0) * (1.0 - p.x - p.y) + c(1) * p.x + c(2) * p.y
+        };
+        let (out, _, on) = tessellate(&[t], &[], &[n]);
+        assert_eq!(on.len(), 4);
+        for (t, c) in out.iter().zip(&on) {
+            for (k, v) in [t.v0, t.v1, t.v2].into_iter().enumerate() {
+                let want = at(Vec3::from(v));
+                let got = Vec3::new(c[3 * k], c[3 * k + 1], c[3 * k + 2]);
+                assert!((got - want).length() < 1e-6, "{got} {want}");
+            }
+        }
+        // Normals behind the winding, or a zero one: flat.
+        assert_eq!(corner_normals(&t, [Vec3::NEG_Z; 3]), [0.0; 9]);
+        assert_eq!(corner_normals(&t, [Vec3::Z, Vec3::ZERO, Vec3::Z]), [0.0; 9]);
     }
 }

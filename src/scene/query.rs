@@ -154,11 +154,35 @@ impl Scene {
         clear || (marginal && self.occluded(ray, tmax))
     }
 
-    /// The surface at a hit, its normal turned towards the ray's origin.
+    /// The surface at a hit, its normal turned towards the ray's origin: the shading
+    /// normal where the triangle has vertex normals ([`Scene::shading_normal`]), else the
+    /// geometric one. (`local.n_obj` stays geometric: the gathering rays' sender reads
+    /// use it, on both backends alike.)
     pub fn surface(&self, hit: &Hit, ray_d: Vec3) -> Surface {
         let local = self.local_surface(hit, ray_d);
-        let (p, n) = self.world_of(&local);
+        let (p, mut n) = self.world_of(&local);
+        if let Some(ns) = self.shading_normal(hit.tri, hit.b1, hit.b2, local.back) {
+            let o = &self.objects[hit.object as usize];
+            if let Some(w) = xform_vector(&o.to_world, ns).try_normalize() {
+                n = w;
+            }
+        }
         Surface { local, p, n }
+    }
+
+    /// The shading normal at barycentrics `(b1, b2)` of global triangle `tri`, object
+    /// space, on the side the ray met (`back`): its corner normals interpolated and made
+    /// unit. `None` where it has none, or where the interpolated normal is zero or does
+    /// not lie on the triangle's front (then the geometric normal serves).
+    #[inline]
+    pub fn shading_normal(&self, tri: u32, b1: f32, b2: f32, back: bool) -> Option<Vec3> {
+        let n = interpolate_normal(
+            self.normals.get(tri as usize)?,
+            tri_normal(&self.tris[tri as usize]),
+            b1,
+            b2,
+        )?;
+        Some(if back { -n } else { n })
     }
 
     /// The world-space point and unit normal of a [`LocalSurface`] (those of
@@ -248,4 +272,16 @@ impl Scene {
     pub fn triangle_count(&self) -> usize {
         self.tris.len()
     }
+}
+
+/// Corner normals `c` (zero: none) interpolated at barycentrics `(b1, b2)` and made unit,
+/// if that lies on the side of `front` (the triangle's winding normal); `None` otherwise.
+#[inline]
+pub fn interpolate_normal(c: &[f32; 9], front: Vec3, b1: f32, b2: f32) -> Option<Vec3> {
+    if c[0] == 0.0 && c[1] == 0.0 && c[2] == 0.0 {
+        return None;
+    }
+    let b0 = 1.0 - b1 - b2;
+    let n = Vec3::new(c[0], c[1], c[2]) * b0 + Vec3::new(c[3], c[4], c[5]) * b1 + Vec3::new(c[6], c[7], c[8]) * b2;
+    n.try_normalize().filter(|n| n.dot(front) > 0.0)
 }
