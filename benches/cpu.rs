@@ -89,7 +89,9 @@ fn trace(c: &mut Criterion) {
         g.bench_function(format!("{name}/cwbvh"), |b| {
             b.iter(|| {
                 rays.iter()
-                    .filter(|r| bvh::trace_cw(&scene.cw, &scene.tris, rootw, r, f32::INFINITY, false).is_some())
+                    .filter(|r| {
+                        bvh::trace_cw(&scene.cw, &scene.tris, rootw, r, f32::INFINITY, false, |_, _, _| true).is_some()
+                    })
                     .count()
             })
         });

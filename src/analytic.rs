@@ -160,6 +160,45 @@ pub fn lit_sphere(dir: &Path, r: f64, subdiv: u32, normals: bool, solver: &str) 
     )
 }
 
+/// A floor `[-s, s]² × {0}` (albedo 0.5) under a directional light of irradiance 1 going
+/// straight down, and above it at height 1 a screen `[-1, 1]²` (albedo 0.5) cut out by
+/// `map_d mask.png`: a 256×16 greyscale PNG (no alpha channel: its grey is the mask),
+/// black (transparent) in its left half, white in its right, u running with x. The floor
+/// gets `E_d = 1` under the screen's cut-out half (`x < 0`) and beside the screen, 0 under
+/// its opaque half (`x > 0`), but for a blend one texel wide at the mask's edges.
+pub fn cutout_screen(dir: &Path, s: f64, solver: &str) -> Result<PathBuf> {
+    write(
+        dir,
+        "screen.obj",
+        &format!(
+            "mtllib screen.mtl\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+             usemtl floor\nv {s} 0 {s}\nv {s} 0 -{s}\nv -{s} 0 -{s}\nv -{s} 0 {s}\nf 1/1 2/1 3/1\nf 1/1 3/1 4/1\n\
+             usemtl screen\nv -1 1 -1\nv 1 1 -1\nv 1 1 1\nv -1 1 1\nf 5/1 6/2 7/3\nf 5/1 7/3 8/4\n"
+        ),
+    )?;
+    write(
+        dir,
+        "screen.mtl",
+        "newmtl floor\nKd 0.5 0.5 0.5\nnewmtl screen\nKd 0.5 0.5 0.5\nmap_d mask.png\n",
+    )?;
+    let mask = image::GrayImage::from_fn(256, 16, |x, _| image::Luma([if x < 128 { 0 } else { 255 }]));
+    let png = dir.join("mask.png");
+    mask.save(&png).map_err(|e| Error::Texture {
+        path: png.clone(),
+        message: e.to_string(),
+    })?;
+    write(
+        dir,
+        "screen.toml",
+        &format!(
+            "[[object]]\nmesh = \"screen.obj\"\n\n[[light]]\ntype = \"directional\"\ndirection = [0.0, -1.0, 0.0]\n\
+             irradiance = [1.0, 1.0, 1.0]\n\n[camera]\nposition = [0.0, 0.5, {cz}]\ntarget = [0.0, 0.0, 0.0]\n\
+             fov = 60.0\nwidth = 32\nheight = 32\n\n[solver]\n{solver}\n",
+            cz = s
+        ),
+    )
+}
+
 /// Closed-form furnace answers: `(E_d for a centred light, E_ind after k bounces,
 /// bounce k alone)`.
 pub fn furnace_expected(r: f64, rho: f64, i: f64, k: u32) -> (f64, f64, f64) {

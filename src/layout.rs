@@ -63,6 +63,12 @@ pub struct Material {
     pub kd: [f32; 3],
     /// Index into the texture table, or [`NONE`].
     pub texture: u32,
+    /// A cutout: the texture whose alpha (times `opacity`) rays pass below `cutoff` (its
+    /// alpha byte, linear), or [`NONE`] for an opaque material.
+    pub alpha_texture: u32,
+    pub opacity: f32,
+    pub cutoff: f32,
+    pub pad: u32,
 }
 
 /// A texture stored as RGBA8 texels (sRGB) at `offset` in the texel array.
@@ -152,7 +158,8 @@ const _: () = {
     assert!(std::mem::size_of::<Node>() == 32);
     assert!(std::mem::size_of::<KdSplit>() == 8);
     assert!(std::mem::size_of::<Parent>() == 8);
-    assert!(std::mem::size_of::<Material>() == 16);
+    assert!(std::mem::size_of::<Material>() == 32);
+    assert!(std::mem::size_of::<GpuEmitter>() == 48);
     assert!(std::mem::size_of::<TextureInfo>() == 16);
     assert!(std::mem::size_of::<GpuLight>() == 48);
     assert!(std::mem::size_of::<ObjectInfo>() == 112 + 12 * MAX_LEVELS as usize + 16);

@@ -581,6 +581,63 @@ fn vertex_normals_follow_the_inverse_transpose_of_the_node_matrix() {
     assert!((got - want).length() < 1e-5, "{got} against {want}");
 }
 
+/// Issue #34: `alphaMode` MASK cuts out where the base colour's alpha (factor × texture)
+/// is below `alphaCutoff`; BLEND is a cutout at 0.5, noted; OPAQUE ignores alpha.
+#[test]
+fn alpha_mask_and_blend_are_cutouts() {
+    let dir = common::tmpdir();
+    let (p, uv) = quad();
+    let mut img = image::RgbaImage::new(2, 1);
+    img.put_pixel(0, 0, image::Rgba([200, 200, 200, 51]));
+    img.put_pixel(1, 0, image::Rgba([200, 200, 200, 255]));
+    let mut png = std::io::Cursor::new(Vec::new());
+    img.write_to(&mut png, image::ImageFormat::Png).unwrap();
+    let light = "[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n";
+    // Whether a ray stops at (x, 0, 0.5) of the quad (uv = (x, z)).
+    let stops = |s: &meshrad::Scene, x: f32| {
+        let d = -Vec3::Y;
+        let ray = meshrad::geom::Ray {
+            o: Vec3::new(x, 1.0, 0.5),
+            d,
+        };
+        s.intersect(&ray, f32::INFINITY).is_some()
+    };
+    for (mode, factor, cutoff, left, right) in [
+        ("MASK", 1.0, Some(0.3), false, true),
+        ("MASK", 0.5, Some(0.3), false, true),
+        ("MASK", 0.5, Some(0.6), false, false),
+        ("BLEND", 1.0, None, false, true),
+        ("OPAQUE", 0.1, None, true, true),
+    ] {
+        let mut d = Doc::default();
+        let pos = d.floats(&p, "VEC3");
+        let tc = d.floats(&uv, "VEC2");
+        let view = d.view(png.get_ref());
+        let im = d.push("images", json!({"bufferView": view, "mimeType": "image/png"}));
+        let sampler = d.push("samplers", json!({"wrapS": 33071, "wrapT": 33071}));
+        let tex = d.push("textures", json!({"source": im, "sampler": sampler}));
+        let mut mat = json!({"pbrMetallicRoughness": {"baseColorFactor": [0.5, 0.5, 0.5, factor],
+                                                      "baseColorTexture": {"index": tex}},
+                             "alphaMode": mode});
+        if let Some(c) = cutoff {
+            mat["alphaCutoff"] = json!(c);
+        }
+        let m = d.push("materials", mat);
+        let mesh = d.push(
+            "meshes",
+            json!({"primitives": [{"attributes": {"POSITION": pos, "TEXCOORD_0": tc}, "material": m}]}),
+        );
+        let n = d.push("nodes", json!({"mesh": mesh}));
+        d.json["scenes"][0]["nodes"] = json!([n]);
+        let g = d.write(dir.path(), &format!("{mode}{factor}{cutoff:?}"), Layout::Binary);
+        let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[]);
+        let got = (stops(&s, 0.1), stops(&s, 0.9));
+        assert_eq!(got, (left, right), "{mode} factor {factor} cutoff {cutoff:?}");
+        let notes = s.report.notes.join("\n");
+        assert_eq!(notes.contains("alphaMode BLEND"), mode == "BLEND", "{notes}");
+    }
+}
+
 /// Issue #35: a non-unit rotation quaternion is normalised with a note (it scaled and
 /// sheared the mesh), and a zero one is refused naming the node.
 #[test]

@@ -24,7 +24,7 @@ fn cornell(levels: u32) -> (Scene, SolverParams) {
 fn surface_points(scene: &Scene, p: &SolverParams, h: &Hierarchy, n: usize) -> Vec<(Vec3, Vec3)> {
     let sides = reach::reachable_sides(scene, p.reach_paths, p.reach_bounces, p.seed);
     let d_min = p.crevice_distance * h.stats.radius_per_level.last().unwrap();
-    poisson::candidates(&scene.tris, &[], &sides, n, 12345)
+    poisson::candidates(&scene.tris, &[], &sides, n, 12345, &|_, _, _| true)
         .into_iter()
         .enumerate()
         .filter(|(i, c)| !hierarchy::in_crevice(scene, 0, c, d_min, *i as u32))
@@ -63,7 +63,7 @@ fn poisson_distance_on_every_level() {
 fn dart_throwing_is_maximal() {
     let (scene, _) = cornell(3);
     let sides = vec![true; scene.tris.len() * 2];
-    let pool = poisson::candidates(&scene.tris, &[], &sides, 20_000, 5);
+    let pool = poisson::candidates(&scene.tris, &[], &sides, 20_000, 5, &|_, _, _| true);
     let r = 20.0;
     let set = poisson::dart_throw(&pool, r, |_| true);
     let mut g = poisson::Grid::new(r);
@@ -81,7 +81,7 @@ fn dart_throwing_is_maximal() {
 fn parallel_dart_throwing_equals_sequential() {
     let (scene, _) = cornell(3);
     let sides = vec![true; scene.tris.len() * 2];
-    let pool = poisson::candidates(&scene.tris, &[], &sides, 60_000, 9);
+    let pool = poisson::candidates(&scene.tris, &[], &sides, 60_000, 9, &|_, _, _| true);
     let usable = |i: usize| (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15) >> 61 != 0; // drops 1 in 8
     for r in [60.0, 15.0, 4.0] {
         let par = poisson::dart_throw(&pool, r, usable);
@@ -361,7 +361,14 @@ fn clip_and_crevice_shortcuts_give_the_traced_answers() {
         for o in 0..scene.objects.len() {
             let obj = &scene.objects[o];
             let r = obj.tri_offset as usize..(obj.tri_offset + obj.tri_count) as usize;
-            let pool = poisson::candidates(&scene.tris[r], &[], &vec![true; obj.tri_count as usize * 2], 6000, 77);
+            let pool = poisson::candidates(
+                &scene.tris[r],
+                &[],
+                &vec![true; obj.tri_count as usize * 2],
+                6000,
+                77,
+                &|_, _, _| true,
+            );
             let diag = hierarchy::object_diagonal(&scene, o);
             for (i, c) in pool.iter().enumerate() {
                 let i = i as u32;

@@ -123,7 +123,19 @@ fn gpu_struct_offsets_match_the_host_structs() {
     same!(Node, "Node", pos, level, normal, object);
     same!(KdSplit, "KdSplit", value, dim);
     same!(Parent, "Parent", node, weight);
-    same!(Material, "Material", kd, texture);
+    same!(Material, "Material", kd, texture, alpha_texture, opacity, cutoff);
+    same!(
+        GpuEmitter,
+        "GpuEmitter",
+        tri,
+        object,
+        prob,
+        cdf,
+        radiance,
+        lum,
+        scale,
+        texture
+    );
     same!(TextureInfo, "TextureInfo", offset, width, height, wrap);
     same!(GpuLight, "GpuLight", position, kind, direction, cutoff, power, beam);
     same!(

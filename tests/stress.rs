@@ -378,7 +378,7 @@ fn cwbvh_traversal_agrees() {
                 .filter_map(|t| wt.intersect(t, tmax).map(|h| h.0))
                 .fold(f32::INFINITY, f32::min);
             let t_of = |h: Option<(u32, f32, f32, f32)>| h.map_or(f32::INFINITY, |h| h.1);
-            let cw = t_of(bvh::trace_cw(&s.cw, &s.tris, rootw, &ray, tmax, false));
+            let cw = t_of(bvh::trace_cw(&s.cw, &s.tris, rootw, &ray, tmax, false, |_, _, _| true));
             let b2 = t_of(bvh::trace(&s.bvh, &s.tris, root2, &ray, tmax, false));
             // The closest hit, or (a box grazed within a rounding) one no farther than a
             // relative 1e-5 behind it, or the end of the ray as near.
@@ -388,7 +388,7 @@ fn cwbvh_traversal_agrees() {
             );
             ties += usize::from(cw != truth);
             assert!(b2 >= truth, "{name}: ray {k}: BVH2 {b2} closer than {truth}");
-            let any = bvh::trace_cw(&s.cw, &s.tris, rootw, &ray, tmax, true).is_some();
+            let any = bvh::trace_cw(&s.cw, &s.tris, rootw, &ray, tmax, true, |_, _, _| true).is_some();
             assert_eq!(any, truth < f32::INFINITY, "{name}: ray {k}: occlusion");
             closer_than_bvh2 += usize::from(cw < b2);
             rays += 1;

@@ -48,8 +48,8 @@ uint cw_intersect(CwNode nd, vec3 o, vec3 inv, uint oct_inv4, float tmax) {
 }
 
 // Closest (or with `any`, first) hit in the CWBVH rooted at `root`; as trace_bvh.
-bool trace_cwbvh(CwNodeRef nodes, UintRef prims, TriRef tris, uint root, vec3 o, vec3 d, inout float tmax,
-                 bool any_hit, out uint tri, out vec3 tuv) {
+bool trace_cwbvh(GlobalsRef g, CwNodeRef nodes, UintRef prims, TriRef tris, uint root, vec3 o, vec3 d,
+                 inout float tmax, bool any_hit, out uint tri, out vec3 tuv) {
     vec3 inv = safe_inverse(d);
     WRay w = watertight_ray(o, d);
     uint oct_inv4 = (d.x < 0.0 ? 0u : 0x04040404u) | (d.y < 0.0 ? 0u : 0x02020202u) | (d.z < 0.0 ? 0u : 0x01010101u);
@@ -67,7 +67,7 @@ bool trace_cwbvh(CwNodeRef nodes, UintRef prims, TriRef tris, uint root, vec3 o,
             prim.y &= ~(1u << local);
             uint t = prims.v[prim.x + local];
             vec3 h;
-            if (intersect_tri(w, tris.v[t], tmax, h)) {
+            if (intersect_tri(w, tris.v[t], tmax, h) && opaque_at(g, t, h.y, h.z)) {
                 tmax = h.x;
                 tuv = h;
                 tri = t;

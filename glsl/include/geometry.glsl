@@ -122,9 +122,67 @@ float slab(BvhNode n, vec3 o, vec3 inv, float tmax) {
     return (tnear <= tfar && tnear < tmax) ? tnear : FAR;
 }
 
+// Twin of texture.rs `wrap_coord`: a coordinate into [0, 1] by wrap mode m
+// (0 repeat, 1 clamp, 2 mirror).
+float wrap_coord(float u, uint m) {
+    if (m == 1u) {
+        return clamp(u, 0.0, 1.0);
+    }
+    if (m == 2u) {
+        float t = u - 2.0 * floor(u * 0.5);
+        return t > 1.0 ? 2.0 - t : t;
+    }
+    return u - floor(u);
+}
+
+// Twin of texture.rs `wrap_index`.
+uint wrap_index(int i, uint n, uint m) {
+    int k = int(n);
+    if (m == 0u) {
+        return uint(i < 0 ? i + k : (i >= k ? i - k : i));
+    }
+    return uint(clamp(i, 0, k - 1));
+}
+
+// Twin of texture::sample_alpha: a texture's alpha byte (linear), bilinear.
+float sample_alpha(GlobalsRef g, TextureInfo info, vec2 uv) {
+    float x = wrap_coord(uv.x, info.wrap & 3u) * float(info.width) - 0.5;
+    float y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2u) & 3u)) * float(info.height) - 0.5;
+    float fx = floor(x);
+    float fy = floor(y);
+    float tx = x - fx;
+    float ty = y - fy;
+    int ix = int(fx);
+    int iy = int(fy);
+    float a[4];
+    for (int k = 0; k < 4; k++) {
+        uint xw = wrap_index(ix + (k & 1), info.width, info.wrap & 3u);
+        uint yw = wrap_index(iy + (k >> 1), info.height, (info.wrap >> 2u) & 3u);
+        a[k] = float(g.texels.v[info.offset + yw * info.width + xw] >> 24u) * (1.0 / 255.0);
+    }
+    return (a[0] * (1.0 - tx) + a[1] * tx) * (1.0 - ty) + (a[2] * (1.0 - tx) + a[3] * tx) * ty;
+}
+
+// Twin of Scene::stops: whether a ray that meets global triangle t at barycentrics
+// (b1, b2) stops there (false on a cutout's cut-out part). Only a textured scene has
+// cutouts.
+bool opaque_at(GlobalsRef g, uint t, float b1, float b2) {
+    if (!TEXTURED) {
+        return true;
+    }
+    Material m = g.materials.v[g.tris.v[t].material];
+    if (m.alpha_texture == NONE) {
+        return true;
+    }
+    TriUv uv = g.uvs.v[t];
+    float b0 = 1.0 - b1 - b2;
+    vec2 u = vec2(uv.uv[0] * b0 + uv.uv[2] * b1 + uv.uv[4] * b2, uv.uv[1] * b0 + uv.uv[3] * b1 + uv.uv[5] * b2);
+    return m.opacity * sample_alpha(g, g.textures.v[m.alpha_texture], u) >= m.cutoff;
+}
+
 // Closest (or with `any`, first) hit of an object-space ray in the BVH at `root`.
 // On a hit, `tri` holds the global triangle index and `tuv` (t, b1, b2); tmax shrinks.
-bool trace_bvh(BvhRef bvh, TriRef tris, uint root, vec3 o, vec3 d, inout float tmax, bool any_hit,
+bool trace_bvh(GlobalsRef g, BvhRef bvh, TriRef tris, uint root, vec3 o, vec3 d, inout float tmax, bool any_hit,
                out uint tri, out vec3 tuv) {
     vec3 inv = safe_inverse(d);
     WRay w = watertight_ray(o, d);
@@ -143,7 +201,7 @@ bool trace_bvh(BvhRef bvh, TriRef tris, uint root, vec3 o, vec3 d, inout float t
         if (n.prim_count > 0u) {
             for (uint i = n.first_index; i < n.first_index + n.prim_count; i++) {
                 vec3 h;
-                if (intersect_tri(w, tris.v[i], tmax, h)) {
+                if (intersect_tri(w, tris.v[i], tmax, h) && opaque_at(g, i, h.y, h.z)) {
                     tmax = h.x;
                     tuv = h;
                     tri = i;
@@ -194,9 +252,9 @@ bool trace_bvh(BvhRef bvh, TriRef tris, uint root, vec3 o, vec3 d, inout float t
 bool trace_object(GlobalsRef g, ObjectInfo ob, vec3 o, vec3 d, inout float tmax, bool any_hit, out uint tri,
                   out vec3 tuv) {
     if (BVH_KIND == BVH_CWBVH) {
-        return trace_cwbvh(g.cw_nodes, g.cw_prims, g.tris, ob.cw_root, o, d, tmax, any_hit, tri, tuv);
+        return trace_cwbvh(g, g.cw_nodes, g.cw_prims, g.tris, ob.cw_root, o, d, tmax, any_hit, tri, tuv);
     }
-    return trace_bvh(g.bvh, g.tris, ob.bvh_offset, o, d, tmax, any_hit, tri, tuv);
+    return trace_bvh(g, g.bvh, g.tris, ob.bvh_offset, o, d, tmax, any_hit, tri, tuv);
 }
 
 // Closest hit over all objects of a world-space ray. Returns the object or NONE.

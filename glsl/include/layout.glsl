@@ -20,7 +20,7 @@ struct TriUv { float uv[6]; };
 struct Node { vec3 pos; uint level; vec3 normal; uint object; };
 struct KdSplit { float value; uint dim; };
 struct Parent { uint node; float weight; };
-struct Material { vec3 kd; uint texture; };
+struct Material { vec3 kd; uint texture; uint alpha_texture; float opacity; float cutoff; uint pad; };
 struct TextureInfo { uint offset; uint width; uint height; uint wrap; };
 struct GpuLight { vec3 position; uint kind; vec3 direction; float cutoff; vec3 power; float beam; };
 struct ObjectInfo {

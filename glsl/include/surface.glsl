@@ -6,28 +6,6 @@
 #include "geometry.glsl"
 #include "sampling.glsl"
 
-// Twin of texture.rs `wrap_coord`: a coordinate into [0, 1] by wrap mode m
-// (0 repeat, 1 clamp, 2 mirror).
-float wrap_coord(float u, uint m) {
-    if (m == 1u) {
-        return clamp(u, 0.0, 1.0);
-    }
-    if (m == 2u) {
-        float t = u - 2.0 * floor(u * 0.5);
-        return t > 1.0 ? 2.0 - t : t;
-    }
-    return u - floor(u);
-}
-
-// Twin of texture.rs `wrap_index`.
-uint wrap_index(int i, uint n, uint m) {
-    int k = int(n);
-    if (m == 0u) {
-        return uint(i < 0 ? i + k : (i >= k ? i - k : i));
-    }
-    return uint(clamp(i, 0, k - 1));
-}
-
 vec3 texel(GlobalsRef g, TextureInfo info, int x, int y) {
     uint xw = wrap_index(x, info.width, info.wrap & 3u);
     uint yw = wrap_index(y, info.height, (info.wrap >> 2u) & 3u);

@@ -568,6 +568,7 @@ pub fn trace_cw(
     ray: &Ray,
     tmax: f32,
     any: bool,
+    keep: impl Fn(u32, f32, f32) -> bool,
 ) -> Option<(u32, f32, f32, f32)> {
     use glam::{uvec2, UVec2};
     if root as usize >= forest.nodes.len() {
@@ -592,7 +593,7 @@ pub fn trace_cw(
             cw_children(node, o, inv, ray.d, t_best, state.oct_inv4),
             {
                 let i = forest.prims[state.primitive_id as usize];
-                if let Some((t, b1, b2)) = wt.intersect(&tris[i as usize], t_best) {
+                if let Some((t, b1, b2)) = wt.intersect(&tris[i as usize], t_best).filter(|h| keep(i, h.1, h.2)) {
                     t_best = t;
                     best = Some((i, t, b1, b2));
                     if any {

@@ -130,6 +130,7 @@ fn free_path(scene: &Scene, p: &SolverParams, sides: &[bool], areas: &[f64], ray
             &sides[r.start * 2..r.end * 2],
             count,
             (p.seed as u64) << 32 | 0x8000_0000 | i as u64,
+            &|t, b1, b2| scene.stops((r.start + t) as u32, b1, b2),
         );
         for c in cands {
             let x = xform_point(&o.to_world, c.pos);
@@ -167,6 +168,7 @@ pub(super) fn candidate_pools(scene: &Scene, p: &SolverParams, sides: &[bool], d
                 &sides[r.start * 2..r.end * 2],
                 count,
                 (p.seed as u64) << 32 | i as u64,
+                &|t, b1, b2| scene.stops((r.start + t) as u32, b1, b2),
             )
         })
         .collect()

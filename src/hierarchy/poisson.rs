@@ -20,8 +20,18 @@ pub struct Candidate {
 
 /// `count` candidates on the reachable sides (`sides[2t + back]`) of `tris`; where
 /// `normals` (corner normals per triangle, or empty) gives a triangle some, a candidate's
-/// normal is the shading normal there (`scene::interpolate_normal`), on its side.
-pub fn candidates(tris: &[Tri], normals: &[[f32; 9]], sides: &[bool], count: usize, seed: u64) -> Vec<Candidate> {
+/// normal is the shading normal there (`scene::interpolate_normal`), on its side. Where
+/// `stops(t, b1, b2)` (triangle `t` of `tris`) is false (a cutout's cut-out part, which
+/// rays pass), a draw is made again, up to [`CUTOUT_TRIES`] times, and dropped after: no
+/// node sits where no light stops.
+pub fn candidates(
+    tris: &[Tri],
+    normals: &[[f32; 9]],
+    sides: &[bool],
+    count: usize,
+    seed: u64,
+    stops: &(dyn Fn(usize, f32, f32) -> bool + Sync),
+) -> Vec<Candidate> {
     let mut cdf = Vec::new();
     let mut which = Vec::new();
     let mut total = 0.0f64;
@@ -70,24 +80,40 @@ pub fn candidates(tris: &[Tri], normals: &[[f32; 9]], sides: &[bool], count: usi
         .for_each(|(c, out)| {
             let mut rng = Rng::new(seed, c as u64);
             for o in out {
-                let (t, mut normal) = which[side(rng.next_f64() * total)];
-                let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
-                if let Some(c) = normals.get(t) {
-                    let front = tri_normal(&tris[t]);
-                    if let Some(ns) = crate::scene::interpolate_normal(c, front, b1, b2) {
-                        normal = if normal.dot(front) < 0.0 { -ns } else { ns };
+                // A cut-out draw: a zero normal, dropped below.
+                let mut got = Candidate {
+                    pos: Vec3::ZERO,
+                    normal: Vec3::ZERO,
+                };
+                for _ in 0..CUTOUT_TRIES {
+                    let (t, mut normal) = which[side(rng.next_f64() * total)];
+                    let (b1, b2) = uniform_triangle(Vec2::new(rng.next_f32(), rng.next_f32()));
+                    if !stops(t, b1, b2) {
+                        continue;
                     }
+                    if let Some(c) = normals.get(t) {
+                        let front = tri_normal(&tris[t]);
+                        if let Some(ns) = crate::scene::interpolate_normal(c, front, b1, b2) {
+                            normal = if normal.dot(front) < 0.0 { -ns } else { ns };
+                        }
+                    }
+                    got = Candidate {
+                        pos: tri_point(&tris[t], b1, b2),
+                        normal,
+                    };
+                    break;
                 }
-                o.write(Candidate {
-                    pos: tri_point(&tris[t], b1, b2),
-                    normal,
-                });
+                o.write(got);
             }
         });
     // SAFETY: the chunks tile the first `count` slots, and each slot was written above.
     unsafe { pool.set_len(count) };
+    pool.retain(|c| c.normal != Vec3::ZERO);
     pool
 }
+
+/// Draws a candidate takes before it is dropped as cut out ([`candidates`]).
+pub const CUTOUT_TRIES: usize = 16;
 
 /// Total area of the reachable sides.
 pub fn reachable_area(tris: &[Tri], sides: &[bool]) -> f64 {

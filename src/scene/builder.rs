@@ -272,6 +272,7 @@ impl Builder {
             mesh.uvs = u;
             mesh.normals = n;
         }
+        drop_cut_out(&mut mesh, &source.display(rel));
         if mesh.tris.is_empty() {
             return Err(Error::Mesh {
                 path: source.display(rel),
@@ -323,12 +324,12 @@ impl Builder {
                 }
                 Some(t) => {
                     let k = table.load(
-                        &mut self.report.inputs,
-                        &self.limits,
+                        (&mut self.report.inputs, self.limits),
                         source,
                         t,
                         m.texture_data.as_deref(),
                         m.wrap,
+                        false,
                     )?;
                     // The texture's mean albedo under this material's factor: above
                     // `max_albedo`, the factor is scaled down to bring it there.
@@ -347,15 +348,41 @@ impl Builder {
                     k
                 }
             };
-            materials.push(Material { kd, texture });
+            // A cutout's alpha: a mask (`map_d`), the albedo texture's alpha (glTF), or a
+            // constant at or above the cutoff (opaque; below it, its triangles were
+            // dropped at load).
+            let alpha_texture = match (&m.alpha_texture, m.cutout) {
+                (_, false) => NONE,
+                (Some(t), true) => table.load(
+                    (&mut self.report.inputs, self.limits),
+                    source,
+                    t,
+                    m.alpha_texture_data.as_deref(),
+                    m.wrap,
+                    true,
+                )?,
+                (None, true) if m.alpha_from_albedo => texture,
+                (None, true) => NONE,
+            };
+            if alpha_texture != NONE {
+                self.report.cutout_materials.push(m.name.clone());
+            }
+            materials.push(Material {
+                kd,
+                texture,
+                alpha_texture,
+                opacity: m.opacity,
+                cutoff: m.cutoff,
+                pad: 0,
+            });
             emission_textures.push(match &m.emission_texture {
                 Some(t) => table.load(
-                    &mut self.report.inputs,
-                    &self.limits,
+                    (&mut self.report.inputs, self.limits),
                     source,
                     t,
                     m.emission_texture_data.as_deref(),
                     m.emission_wrap,
+                    false,
                 )?,
                 None => NONE,
             });
@@ -456,6 +483,7 @@ impl Builder {
             uvs,
             normals,
             bvh: self.bvh,
+            cutouts: materials.iter().any(|m| m.alpha_texture != NONE),
             materials,
             material_names: self.materials.iter().map(|m| m.name.clone()).collect(),
             textures,
@@ -472,12 +500,50 @@ impl Builder {
     }
 }
 
+/// Drops the triangles of materials that are cut out everywhere (a constant alpha below
+/// the cutoff, no texture: rays would always pass), with their uvs and normals, and notes
+/// it naming the materials.
+fn drop_cut_out(mesh: &mut obj::LoadedMesh, shown: &Path) {
+    let gone: Vec<bool> = mesh.materials.iter().map(obj::MtlData::cut_out_entirely).collect();
+    if !gone.iter().any(|&g| g) {
+        return;
+    }
+    let keep: Vec<bool> = mesh
+        .tris
+        .iter()
+        .map(|t| !gone.get(t.material as usize).copied().unwrap_or(false))
+        .collect();
+    let dropped = keep.iter().filter(|&&k| !k).count();
+    let mut k = keep.iter();
+    mesh.tris.retain(|_| *k.next().unwrap_or(&true));
+    if !mesh.uvs.is_empty() {
+        let mut k = keep.iter();
+        mesh.uvs.retain(|_| *k.next().unwrap_or(&true));
+    }
+    if !mesh.normals.is_empty() {
+        let mut k = keep.iter();
+        mesh.normals.retain(|_| *k.next().unwrap_or(&true));
+    }
+    let names: Vec<String> = mesh
+        .materials
+        .iter()
+        .filter(|m| m.cut_out_entirely())
+        .map(|m| format!("`{}` (alpha {} below the cutoff {})", m.name, m.opacity, m.cutoff))
+        .collect();
+    mesh.notes.push(format!(
+        "{}: {dropped} triangle(s) of material(s) {} dropped: cut out everywhere, rays pass them",
+        shown.display(),
+        names.join(", ")
+    ));
+}
+
 /// The scene's textures as they are loaded: each (file, wrap) decoded once.
 #[derive(Default)]
 struct TextureTable {
     textures: Vec<TextureInfo>,
     texels: Vec<u32>,
-    paths: Vec<(PathBuf, u32)>,
+    /// Each texture's file, wrap modes, and whether it was read as a mask (`map_d`).
+    paths: Vec<(PathBuf, u32, bool)>,
 }
 
 impl TextureTable {
@@ -485,14 +551,14 @@ impl TextureTable {
     /// with wrap modes `wrap`, decoded on first use within the memory limit.
     fn load(
         &mut self,
-        inputs: &mut Vec<PathBuf>,
-        limits: &Limits,
+        (inputs, limits): (&mut Vec<PathBuf>, Limits),
         source: &Source,
         t: &Path,
         data: Option<&[u8]>,
         wrap: u32,
+        mask: bool,
     ) -> Result<u32> {
-        if let Some(k) = self.paths.iter().position(|p| p.0 == t && p.1 == wrap) {
+        if let Some(k) = self.paths.iter().position(|p| p.0 == t && p.1 == wrap && p.2 == mask) {
             return Ok(k as u32);
         }
         let shown = source.display(t);
@@ -524,7 +590,11 @@ impl TextureTable {
                 ],
             )?;
         }
-        let (w, h, px) = texture::decode(bytes, &shown)?;
+        let (w, h, px) = if mask {
+            texture::decode_mask(bytes, &shown)?
+        } else {
+            texture::decode(bytes, &shown)?
+        };
         self.textures.push(TextureInfo {
             offset: self.texels.len() as u32,
             width: w,
@@ -532,7 +602,7 @@ impl TextureTable {
             wrap,
         });
         self.texels.extend(px);
-        self.paths.push((t.to_path_buf(), wrap));
+        self.paths.push((t.to_path_buf(), wrap, mask));
         Ok((self.textures.len() - 1) as u32)
     }
 }

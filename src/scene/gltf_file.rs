@@ -420,6 +420,27 @@ impl Input<'_> {
             md.texture_data = data;
             md.wrap = wrap_modes(&tex);
         }
+        // Alpha: a cutout of the base colour's alpha (factor × texture), at alphaCutoff
+        // for MASK, at 0.5 for BLEND (no blending here: noted).
+        match m.alpha_mode() {
+            ::gltf::material::AlphaMode::Opaque => {}
+            mode => {
+                md.cutout = true;
+                md.opacity = f[3];
+                md.alpha_from_albedo = true;
+                if mode == ::gltf::material::AlphaMode::Mask {
+                    let c = m.alpha_cutoff().unwrap_or(0.5);
+                    if !c.is_finite() || c < 0.0 {
+                        return Err(err(format!("{at}.alphaCutoff {c} must be finite and non-negative")));
+                    }
+                    md.cutoff = c;
+                } else {
+                    *unsupported
+                        .entry("alphaMode BLEND (treated as a cutout at alpha 0.5)")
+                        .or_default() += 1;
+                }
+            }
+        }
         Ok(md)
     }
 

@@ -83,6 +83,8 @@ pub struct LoadReport {
     pub emissive_materials_ignored: Vec<String>,
     /// Triangles that emit light (MTL `Ke`).
     pub emitting_triangles: usize,
+    /// Materials with an alpha texture: rays pass their cut-out parts.
+    pub cutout_materials: Vec<String>,
     pub textures: usize,
     /// What was read but not used (e.g. `map_Kd` options without effect), one line each.
     pub notes: Vec<String>,
@@ -112,6 +114,8 @@ pub struct Scene {
     /// GPU's `bvh = "bvh2"`.
     pub cw: bvh::CwForest,
     pub materials: Vec<Material>,
+    /// Whether some material is a cutout with an alpha texture (rays test it at hits).
+    pub cutouts: bool,
     pub material_names: Vec<String>,
     pub textures: Vec<TextureInfo>,
     pub texels: Vec<u32>,

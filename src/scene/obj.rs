@@ -40,6 +40,17 @@ pub struct MtlData {
     pub emission_texture: Option<PathBuf>,
     pub emission_texture_data: Option<std::sync::Arc<[u8]>>,
     pub emission_wrap: u32,
+    /// A cutout (MTL `map_d`/`d`/`Tr`, glTF `alphaMode` MASK or BLEND): rays pass where
+    /// `opacity` × the alpha texture's value is below `cutoff`. False: opaque.
+    pub cutout: bool,
+    /// MTL `d` (1 − `Tr`), glTF `baseColorFactor`'s alpha.
+    pub opacity: f32,
+    pub cutoff: f32,
+    /// MTL `map_d` (a mask: its alpha channel if it has one, else its red one).
+    pub alpha_texture: Option<PathBuf>,
+    pub alpha_texture_data: Option<std::sync::Arc<[u8]>>,
+    /// glTF: the alpha is the base colour texture's alpha channel.
+    pub alpha_from_albedo: bool,
     /// The file it was defined in and the line of its `Kd` (for messages).
     pub origin: PathBuf,
     pub kd_line: Option<usize>,
@@ -63,6 +74,12 @@ impl MtlData {
             emission_texture: None,
             emission_texture_data: None,
             emission_wrap: 0,
+            cutout: false,
+            opacity: 1.0,
+            cutoff: CUTOFF,
+            alpha_texture: None,
+            alpha_texture_data: None,
+            alpha_from_albedo: false,
             origin,
             kd_line: None,
             used_by: PathBuf::new(),
@@ -89,6 +106,21 @@ pub struct LoadedMesh {
     pub notes: Vec<String>,
     /// The files read: the OBJ and its material libraries.
     pub inputs: Vec<PathBuf>,
+}
+
+/// The alpha below which a cutout lets rays through (MTL `d`/`map_d`, glTF BLEND; glTF
+/// MASK gives its own `alphaCutoff`).
+pub const CUTOFF: f32 = 0.5;
+
+impl MtlData {
+    /// Whether its cutout takes every ray through (a constant alpha below the cutoff, no
+    /// texture): its triangles are dropped at load.
+    pub fn cut_out_entirely(&self) -> bool {
+        self.cutout
+            && self.alpha_texture.is_none()
+            && !(self.alpha_from_albedo && self.texture.is_some())
+            && self.opacity < self.cutoff
+    }
 }
 
 /// Albedo of faces that have no material.
@@ -519,12 +551,33 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
             continue;
         }
         let is_colour = matches!(key, "Ka" | "Kd" | "Ks" | "Ke" | "Tf");
-        let is_map = key == "map_Kd" || key == "map_Ke";
-        if !is_colour && !is_map {
+        let is_map = key == "map_Kd" || key == "map_Ke" || key == "map_d";
+        let is_alpha = key == "d" || key == "Tr";
+        if !is_colour && !is_map && !is_alpha {
             continue;
         }
         // Statements before the first `newmtl` belong to no material: tobj drops them too.
         let Some(cur) = out.last_mut() else { continue };
+        if is_alpha {
+            // `d 0.3` or `d -halo 0.3` (the halo form is read as plain dissolve).
+            let v: Vec<&str> = args.iter().copied().filter(|w| *w != "-halo").collect();
+            let x = match v.as_slice() {
+                [w] => w
+                    .parse::<f32>()
+                    .ok()
+                    .filter(|x| x.is_finite() && (0.0..=1.0).contains(x)),
+                _ => None,
+            }
+            .ok_or_else(|| {
+                err(format!(
+                    "`{key}` needs one number in [0, 1], found `{}`",
+                    quote(&args.join(" "))
+                ))
+            })?;
+            cur.opacity = if key == "d" { x } else { 1.0 - x };
+            cur.cutout = true;
+            continue;
+        }
         if is_colour {
             let c = match colour(key, args) {
                 Ok(c) => c,
@@ -560,6 +613,13 @@ pub fn parse_mtl(text: &str, shown: &Path, dir: &Path) -> Result<(Vec<MtlData>, 
                     cur.ke_line = Some(line);
                 }
                 _ => {}
+            }
+        } else if key == "map_d" {
+            let (file, _, _, ignored) = map_options(args).map_err(err)?;
+            cur.alpha_texture = Some(dir.join(file.replace('\\', "/")));
+            cur.cutout = true;
+            if !ignored.is_empty() {
+                notes.push(format!("{}:{line}: map_d options ignored", shown.display()));
             }
         } else if key == "map_Ke" {
             // The emission texture reads the uvs `map_Kd` gives (its own -o/-s too would

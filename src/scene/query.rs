@@ -28,7 +28,11 @@ impl Scene {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            if let Some((tri, t, b1, b2)) = bvh::trace_cw(&self.cw, &self.tris, self.cw.roots[i], &r, tmax, false) {
+            if let Some((tri, t, b1, b2)) =
+                bvh::trace_cw(&self.cw, &self.tris, self.cw.roots[i], &r, tmax, false, |t, b1, b2| {
+                    self.stops(t, b1, b2)
+                })
+            {
                 tmax = t;
                 best = Some(Hit {
                     object: i as u32,
@@ -49,7 +53,10 @@ impl Scene {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            bvh::trace_cw(&self.cw, &self.tris, root, &r, tmax, true).is_some()
+            bvh::trace_cw(&self.cw, &self.tris, root, &r, tmax, true, |t, b1, b2| {
+                self.stops(t, b1, b2)
+            })
+            .is_some()
         })
     }
 
@@ -105,6 +112,9 @@ impl Scene {
             });
             for &(oi, tri) in run {
                 if let Some((t, b1, b2)) = wt.intersect(&self.tris[tri as usize], tmax) {
+                    if !self.stops(tri, b1, b2) {
+                        continue;
+                    }
                     if f(oi, tri, t, b1, b2) {
                         return;
                     }
@@ -256,6 +266,27 @@ impl Scene {
             uv[0] * b0 + uv[2] * b1 + uv[4] * b2,
             uv[1] * b0 + uv[3] * b1 + uv[5] * b2,
         )
+    }
+
+    /// Whether a ray that meets global triangle `tri` at barycentrics `(b1, b2)` stops
+    /// there: false where the triangle's material is a cutout whose alpha there (its
+    /// `opacity` times its alpha texture) is below its cutoff. Every traversal's any-hit
+    /// test (camera, shadow, gathering, reach and crevice rays; kernels `opaque_at`).
+    #[inline]
+    pub fn stops(&self, tri: u32, b1: f32, b2: f32) -> bool {
+        if !self.cutouts {
+            return true;
+        }
+        let m = &self.materials[self.tris[tri as usize].material as usize];
+        if m.alpha_texture == NONE {
+            return true;
+        }
+        let a = texture::sample_alpha(
+            &self.texels,
+            &self.textures[m.alpha_texture as usize],
+            self.uv_at(tri, b1, b2),
+        );
+        m.opacity * a >= m.cutoff
     }
 
     /// The shadow-ray origin for a world-space surface point.

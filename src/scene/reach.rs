@@ -65,9 +65,15 @@ impl ObjectReach {
         let mut lit = vec![false; self.component.len()];
         // Marks the component of the first side an object-space ray meets in object `o`.
         let mut mark = |o: usize, ray: Ray| {
-            if let Some((t, _, _, _)) =
-                crate::geom::bvh::trace_cw(&scene.cw, &scene.tris, scene.cw.roots[o], &ray, f32::INFINITY, false)
-            {
+            if let Some((t, _, _, _)) = crate::geom::bvh::trace_cw(
+                &scene.cw,
+                &scene.tris,
+                scene.cw.roots[o],
+                &ray,
+                f32::INFINITY,
+                false,
+                |t, b1, b2| scene.stops(t, b1, b2),
+            ) {
                 let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
                 let back = g.dot(ray.d) > 0.0;
                 lit[self.component[t as usize * 2 + back as usize] as usize] = true;
@@ -155,6 +161,7 @@ fn outside_marks(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool
                         &ray,
                         f32::INFINITY,
                         false,
+                        |t, b1, b2| scene.stops(t, b1, b2),
                     ) else {
                         break;
                     };

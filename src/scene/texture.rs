@@ -60,6 +60,47 @@ pub fn decode(bytes: &[u8], shown: &Path) -> Result<(u32, u32, Vec<u32>)> {
     Ok((w, h, texels))
 }
 
+/// Decodes a mask image (MTL `map_d`) as packed RGBA8 texels whose alpha byte is the
+/// mask: the image's alpha channel where it has one, else its red channel.
+pub fn decode_mask(bytes: &[u8], shown: &Path) -> Result<(u32, u32, Vec<u32>)> {
+    let has_alpha = image::load_from_memory(bytes)
+        .map(|i| i.color().has_alpha())
+        .map_err(|e| Error::Texture {
+            path: shown.into(),
+            message: e.to_string(),
+        })?;
+    let (w, h, px) = decode(bytes, shown)?;
+    let px = px
+        .into_iter()
+        .map(|p| {
+            if has_alpha {
+                p
+            } else {
+                (p & 0x00ff_ffff) | (p & 0xff) << 24
+            }
+        })
+        .collect();
+    Ok((w, h, px))
+}
+
+/// Bilinear lookup of a texture's alpha byte (linear, in [0, 1]) at `uv`, as [`sample`]
+/// reads its colour: what a cutout tests. GLSL twin: `sample_alpha` in
+/// `glsl/include/geometry.glsl`.
+pub fn sample_alpha(texels: &[u32], info: &TextureInfo, uv: Vec2) -> f32 {
+    let x = wrap_coord(uv.x, info.wrap & 3) * info.width as f32 - 0.5;
+    let y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2) & 3)) * info.height as f32 - 0.5;
+    let (fx, fy) = (x.floor(), y.floor());
+    let (tx, ty) = (x - fx, y - fy);
+    let (ix, iy) = (fx as i32, fy as i32);
+    let a = |x: i32, y: i32| {
+        let xw = wrap_index(x, info.width, info.wrap & 3);
+        let yw = wrap_index(y, info.height, (info.wrap >> 2) & 3);
+        (texels[(info.offset + yw * info.width + xw) as usize] >> 24) as f32 * (1.0 / 255.0)
+    };
+    (a(ix, iy) * (1.0 - tx) + a(ix + 1, iy) * tx) * (1.0 - ty)
+        + (a(ix, iy + 1) * (1.0 - tx) + a(ix + 1, iy + 1) * tx) * ty
+}
+
 /// A texture coordinate brought into [0, 1] by wrap mode `m` (`TextureInfo::wrap`).
 #[inline]
 fn wrap_coord(u: f32, m: u32) -> f32 {
