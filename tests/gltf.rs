@@ -638,6 +638,33 @@ fn alpha_mask_and_blend_are_cutouts() {
     }
 }
 
+/// Issue #34: a public asset as shipped (Khronos' BoxTextured, CC-BY 4.0, in
+/// `tests/data/`): its embedded PNG and buffer are read under glTF's default white
+/// factor, its normals are read, and it solves and renders lit.
+#[test]
+fn box_textured_loads_as_shipped() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/BoxTextured/scene.toml");
+    let (s, p) = common::load(&path, &[]);
+    assert_eq!(s.triangle_count(), 12);
+    assert!(s.textured());
+    assert_eq!(s.normals.len(), 12);
+    // glTF's default white factor: the texture's mean under it is below max_albedo, so
+    // it stays 1 (a factor of 1 alone would be lowered: `an_albedo_of_one_loads…`).
+    assert_eq!(s.materials[0].kd, [1.0; 3]);
+    let hidden = meshrad::progress::Progress::hidden();
+    let run = meshrad::solve(&s, &p, &mut meshrad::Engine::cpu(), &hidden).unwrap();
+    let img = meshrad::output::image::render(&s, &run.hierarchy, &run.solution, &p, &hidden);
+    let lit = img.total().iter().filter(|v| v.min_element() > 0.0).count();
+    assert!(lit > img.direct.len() / 2, "{lit} of {} pixels lit", img.direct.len());
+    // A lone convex box: nothing reflects light back onto it.
+    assert!(run
+        .solution
+        .values
+        .indirect
+        .iter()
+        .all(|v| v.x == 0.0 && v.y == 0.0 && v.z == 0.0));
+}
+
 /// Issue #35: a non-unit rotation quaternion is normalised with a note (it scaled and
 /// sheared the mesh), and a zero one is refused naming the node.
 #[test]
