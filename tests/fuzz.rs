@@ -1,10 +1,11 @@
 //! Mutation fuzzing of every input meshrad reads, and of what runs on an input that loads.
 //! Each case is a mutated copy of one kind's seed files, written to a temporary directory:
-//! - `text`: the scene (TOML), mesh (OBJ), material (MTL) and points parsers, with a
+//! - `text`: the scene (TOML), mesh (OBJ), material (MTL: emission and alpha maps too) and
+//!   points parsers, with a
 //!   `--set` override;
 //! - `gltf`: a glTF's JSON and its binary buffer (nodes with TRS and matrices, an indexed
 //!   list and a strip, normals and uvs, a texture, emission and its strength, alpha modes,
-//!   `KHR_lights_punctual` lights, a camera);
+//!   `KHR_lights_punctual` lights, a camera, an emissive texture);
 //! - `glb`: the same as a GLB container, mutated as bytes or through its JSON chunk (with
 //!   the chunk lengths rebuilt or left stale);
 //! - `envmap`: an OpenEXR and a Radiance `.hdr` sky map, as bytes;
@@ -55,7 +56,7 @@ v 1 0 1\nv 1 1 1\nv 0 1 1\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 -1\nf 1/1/1 2/
 f 1 5 6 2\nf 2 6 7 3\nf 3 7 8 4\nf 4 8 5 1\ng floor\nusemtl b\nv -3 -0.01 -3\nv 3 -0.01 -3\nv 3 -0.01 3\nv -3 -0.01 3\n\
 f -4 -1 -2\nf -4 -2 -3\n";
 
-const MTL: &str = "newmtl a\nKd 0.5 0.4 0.3\nKs 0 0 0\nNs 10\nmap_Kd -s 1 1 1 t.png\n\nnewmtl b\nKd 0.7\nKe 0 0 0\n";
+const MTL: &str = "newmtl a\nKd 0.5 0.4 0.3\nKs 0 0 0\nNs 10\nmap_Kd -s 1 1 1 t.png\nd 0.9\nmap_d t.png\n\nnewmtl b\nKd 0.7\nKe 0 0 0\nmap_Ke t.png\nTr 0.1\n";
 
 const POINTS: &str = "# probes\n0.5 1.0 0.5 0 1 0\n0 0 0 0 1 0\n1 2 3, 0, 0, 1\n";
 
@@ -135,6 +136,10 @@ const WORDS: &[&str] = &[
     "Ka",
     "Ke",
     "map_Kd",
+    "map_Ke",
+    "map_d",
+    "d",
+    "Tr",
     "-s",
     "-o",
     "-clamp",
@@ -235,6 +240,7 @@ const WORDS: &[&str] = &[
     "baseColorFactor",
     "baseColorTexture",
     "emissiveFactor",
+    "emissiveTexture",
     "emissiveStrength",
     "alphaMode",
     "alphaCutoff",
@@ -483,6 +489,7 @@ fn gltf_doc() -> Doc {
     let m0 = d.push(
         "materials",
         json!({"pbrMetallicRoughness": {"baseColorFactor": [0.8, 0.8, 0.8, 1.0], "baseColorTexture": {"index": tex}},
+               "emissiveFactor": [0.2, 0.2, 0.2], "emissiveTexture": {"index": tex},
                "alphaMode": "MASK", "alphaCutoff": 0.5}),
     );
     let m1 = d.push(
