@@ -339,6 +339,29 @@ fn group_selects_nodes_and_a_missing_one_is_named() {
         err.contains("g.gltf") && err.contains("no node `attic`") && err.contains("shelf"),
         "{err}"
     );
+    // Issue #34: `!` leaves a node out (a skybox, say) and keeps the rest; any node, named
+    // or not, is also `nodes[i]`.
+    let (s, _) = common::load(&gltf_toml(dir.path(), &g, &format!("group = \"!shelf\"\n{light}")), &[]);
+    assert_eq!(s.tris.len(), 2);
+    assert!(s.tris.iter().all(|t| t.v0[1] == 0.0));
+    d.json["nodes"][n]["name"] = json!(null);
+    let g = d.write(dir.path(), "unnamed", Layout::External);
+    let (s, _) = common::load(
+        &gltf_toml(dir.path(), &g, &format!("group = \"nodes[{n}]\"\n{light}")),
+        &[],
+    );
+    assert!(s.tris.len() == 2 && s.tris.iter().all(|t| t.v0[1] == 1.0));
+    let (s, _) = common::load(
+        &gltf_toml(dir.path(), &g, &format!("group = [\"!nodes[{n}]\"]\n{light}")),
+        &[],
+    );
+    assert!(s.tris.len() == 2 && s.tris.iter().all(|t| t.v0[1] == 0.0));
+    let bad = gltf_toml(dir.path(), &g, &format!("group = \"!nodes[9]\"\n{light}"));
+    let err = meshrad::Scene::load(&bad, &[]).unwrap_err().to_string();
+    assert!(
+        err.contains("no node `nodes[9]`") && err.contains("`nodes[i]`"),
+        "{err}"
+    );
 }
 
 /// Mutated glTF files load or fail with an error, never a panic: numbers in the JSON
@@ -476,6 +499,31 @@ fn an_albedo_of_one_loads_lowered_to_max_albedo() {
     );
     let (s, _) = common::load(&gltf_toml(dir.path(), &g, light), &[("max_albedo", "0.5")]);
     assert_eq!(s.materials[0].kd, [0.5; 3]);
+}
+
+/// Issue #34: `!` leaves an OBJ group out too, keeping every other one; a group named
+/// both ways is left out.
+#[test]
+fn obj_groups_can_be_left_out() {
+    let box_toml = scenes().join("cornell_box.toml");
+    let (all, _) = common::load(&box_toml, &[]);
+    let dir = common::tmpdir();
+    let text = std::fs::read_to_string(&box_toml).unwrap();
+    let mesh = scenes().join("cornell_original_mm.obj");
+    let without = |groups: &str| {
+        let p = dir.path().join("s.toml");
+        let t = text.replace(
+            "mesh = \"cornell_original_mm.obj\"",
+            &format!("mesh = {:?}\ngroup = {groups}", mesh.to_str().unwrap()),
+        );
+        assert!(t.contains("group = "), "{t}");
+        std::fs::write(&p, t).unwrap();
+        common::load(&p, &[]).0.tris.len()
+    };
+    let n = all.tris.len();
+    assert_eq!(without("\"!cbox_largebox\""), n - 12);
+    assert_eq!(without("[\"!cbox_largebox\", \"!cbox_smallbox\"]"), n - 24);
+    assert_eq!(without("[\"cbox_floor\", \"cbox_back\", \"!cbox_back\"]"), 2);
 }
 
 /// Issue #34: `emissiveTexture` × `emissiveFactor` is the emission, per texel (glTF's v

@@ -39,8 +39,8 @@ pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Image
             let o = &scene.objects[e];
             out.push(format!(
                 "object {e} (`{}`) encloses the others, and the light reaches only its outside: a box or skybox \
-                 around the scene keeps the lights and the sky out; leave it out (`group`) or give it no faces \
-                 toward the light",
+                 around the scene keeps the lights and the sky out; leave it out (its [[object]], or `group = \"!name\"` \
+                 for a glTF node or OBJ group inside it) or give it no faces toward the light",
                 o.name
             ));
         }

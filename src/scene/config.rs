@@ -45,7 +45,8 @@ pub struct ObjectEntry {
     /// The object's name, unique in the scene (default `object<i>`): frames and sessions
     /// move it by this name.
     pub name: Option<String>,
-    /// Only the faces of these `o`/`g` groups of the OBJ (one name or a list).
+    /// Only the faces of these `o`/`g` groups of the OBJ, or these nodes' subtrees of a
+    /// glTF (by name, or `nodes[i]`), one name or a list; `!name` leaves one out.
     pub group: Option<Groups>,
     pub translate: Option<[f32; 3]>,
     /// Degrees about x, then y, then z.

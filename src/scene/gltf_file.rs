@@ -145,11 +145,12 @@ pub fn load_within(
         unsupported: &mut unsupported,
         any_uv: false,
         any_normal: false,
-        selected: groups.map(|g| g.to_vec()),
+        selection: Selection::of(groups),
         found: HashSet::new(),
     };
+    let from_roots = walk.selection.keeps_the_roots();
     for n in &roots {
-        walk.node(n, Mat4::IDENTITY, 0, groups.is_none()).map_err(err)?;
+        walk.node(n, Mat4::IDENTITY, 0, from_roots).map_err(err)?;
     }
     let (any_uv, any_normal) = (walk.any_uv, walk.any_normal);
     input.check_groups(doc, groups, &walk.found)?;
@@ -230,6 +231,42 @@ fn check_tree(doc: &::gltf::Document, roots: &[::gltf::Node<'_>]) -> std::result
 /// `count` and its mode, once for every node that instances its mesh; with `groups`,
 /// only inside the named nodes' subtrees, as [`Walk::node`] keeps them. The tree is a
 /// forest here ([`check_tree`]), so every node is visited once.
+/// How `[[object]] group` picks a glTF's nodes: an entry names a node to keep with its
+/// subtree, by its `name` or, named or not, as `nodes[i]`; an entry starting with `!`
+/// names one to leave out with its subtree (a skybox, say). With no entry to keep, every
+/// node is kept but those left out.
+struct Selection<'a> {
+    keep: Vec<&'a str>,
+    drop: Vec<&'a str>,
+}
+
+impl<'a> Selection<'a> {
+    fn of(groups: Option<&'a [String]>) -> Selection<'a> {
+        let mut s = Selection {
+            keep: Vec::new(),
+            drop: Vec::new(),
+        };
+        for g in groups.unwrap_or(&[]) {
+            match g.strip_prefix('!') {
+                Some(d) => s.drop.push(d),
+                None => s.keep.push(g),
+            }
+        }
+        s
+    }
+
+    /// Whether the roots are kept before any entry matches.
+    fn keeps_the_roots(&self) -> bool {
+        self.keep.is_empty()
+    }
+
+    /// The entry of `list` that names node `n`, if one does.
+    fn matching(list: &[&'a str], n: &::gltf::Node) -> Option<&'a str> {
+        let index = format!("nodes[{}]", n.index());
+        list.iter().copied().find(|s| Some(*s) == n.name() || *s == index)
+    }
+}
+
 fn count_triangles(doc: &::gltf::Document, roots: &[::gltf::Node<'_>], groups: Option<&[String]>) -> u64 {
     let per_mesh: Vec<u64> = doc
         .meshes()
@@ -250,14 +287,15 @@ fn count_triangles(doc: &::gltf::Document, roots: &[::gltf::Node<'_>], groups: O
         })
         .collect();
     let mut total = 0u64;
+    let sel = Selection::of(groups);
     let mut stack: Vec<(::gltf::Node<'_>, bool, usize)> =
-        roots.iter().map(|n| (n.clone(), groups.is_none(), 0)).collect();
+        roots.iter().map(|n| (n.clone(), sel.keeps_the_roots(), 0)).collect();
     while let Some((n, on, depth)) = stack.pop() {
-        if depth > MAX_DEPTH {
-            // The walk refuses it, naming the node.
+        if depth > MAX_DEPTH || Selection::matching(&sel.drop, &n).is_some() {
+            // Too deep: the walk refuses it, naming the node. Left out: not counted.
             continue;
         }
-        let on = on || matches!((groups, n.name()), (Some(g), Some(name)) if g.iter().any(|s| s == name));
+        let on = on || Selection::matching(&sel.keep, &n).is_some();
         if on {
             if let Some(m) = n.mesh() {
                 total = total.saturating_add(per_mesh[m.index()]);
@@ -489,10 +527,11 @@ impl Input<'_> {
     /// With `groups`, that the walk `found` a node of each name.
     fn check_groups(&self, doc: &::gltf::Document, groups: Option<&[String]>, found: &HashSet<String>) -> Result<()> {
         if let Some(names) = groups {
-            if let Some(missing) = names.iter().find(|g| !found.contains(*g)) {
+            if let Some(missing) = names.iter().find(|g| !found.contains(g.trim_start_matches('!'))) {
                 let have: Vec<&str> = doc.nodes().filter_map(|n| n.name()).take(40).collect();
                 return Err(self.err(format!(
-                    "has no node `{missing}` in its scene (its named nodes: {})",
+                    "has no node `{}` in its scene (its named nodes: {}; any node is also `nodes[i]`)",
+                    missing.trim_start_matches('!'),
                     if have.is_empty() {
                         "none".to_string()
                     } else {
@@ -585,7 +624,8 @@ struct Walk<'a> {
     any_uv: bool,
     any_normal: bool,
     /// `group`: only these nodes' subtrees.
-    selected: Option<Vec<String>>,
+    selection: Selection<'a>,
+    /// The `group` entries a node matched (`!` stripped).
     found: HashSet<String>,
 }
 
@@ -625,13 +665,17 @@ impl Walk<'_> {
             return Err(format!("{at}: its transform is not finite"));
         }
         let m = parent * local;
+        if let Some(d) = Selection::matching(&self.selection.drop, n) {
+            self.found.insert(d.to_string());
+            return Ok(());
+        }
         let on = on
-            || match (&self.selected, n.name()) {
-                (Some(sel), Some(name)) if sel.iter().any(|s| s == name) => {
-                    self.found.insert(name.to_string());
+            || match Selection::matching(&self.selection.keep, n) {
+                Some(k) => {
+                    self.found.insert(k.to_string());
                     true
                 }
-                _ => false,
+                None => false,
             };
         if on {
             if n.skin().is_some() {

@@ -247,6 +247,14 @@ fn select_groups(
     Ok(match groups {
         None => models,
         Some(names) => {
+            // `!g` leaves group g out; with no group named to keep, every other one stays.
+            let names: Vec<String> = names.iter().map(|g| g.trim_start_matches('!').to_string()).collect();
+            let dropped = |g: &String| {
+                groups
+                    .unwrap_or(&[])
+                    .iter()
+                    .any(|e| e.strip_prefix('!') == Some(g.as_str()))
+            };
             let has_faces = |g: &String| models.iter().any(|m| &m.name == g && !m.mesh.indices.is_empty());
             if let Some(missing) = names.iter().find(|g| !has_faces(g)) {
                 let mut have: Vec<&str> = Vec::new();
@@ -283,7 +291,11 @@ fn select_groups(
                     ),
                 });
             }
-            models.into_iter().filter(|m| names.contains(&m.name)).collect()
+            let keep: Vec<&String> = names.iter().filter(|g| !dropped(g)).collect();
+            models
+                .into_iter()
+                .filter(|m| (keep.is_empty() || keep.contains(&&m.name)) && !dropped(&m.name))
+                .collect()
         }
     })
 }
