@@ -144,16 +144,27 @@ uint wrap_index(int i, uint n, uint m) {
     return uint(clamp(i, 0, k - 1));
 }
 
-// Twin of texture::sample_alpha: a texture's alpha byte (linear), bilinear.
-float sample_alpha(GlobalsRef g, TextureInfo info, vec2 uv) {
+// Twin of texture::bilinear_at: the texel below and left of uv's footprint (ix, iy) and
+// the weights toward the next ones (t), uv wrapped into [0, 1] first so that texel
+// indices stay within one step of the image.
+void bilinear_at(TextureInfo info, vec2 uv, out int ix, out int iy, out vec2 t) {
     float x = wrap_coord(uv.x, info.wrap & 3u) * float(info.width) - 0.5;
     float y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2u) & 3u)) * float(info.height) - 0.5;
     float fx = floor(x);
     float fy = floor(y);
-    float tx = x - fx;
-    float ty = y - fy;
-    int ix = int(fx);
-    int iy = int(fy);
+    t = vec2(x - fx, y - fy);
+    ix = int(fx);
+    iy = int(fy);
+}
+
+// Twin of texture::sample_alpha: a texture's alpha byte (linear), bilinear.
+float sample_alpha(GlobalsRef g, TextureInfo info, vec2 uv) {
+    int ix;
+    int iy;
+    vec2 t;
+    bilinear_at(info, uv, ix, iy, t);
+    float tx = t.x;
+    float ty = t.y;
     float a[4];
     for (int k = 0; k < 4; k++) {
         uint xw = wrap_index(ix + (k & 1), info.width, info.wrap & 3u);

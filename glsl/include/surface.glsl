@@ -15,15 +15,12 @@ vec3 texel(GlobalsRef g, TextureInfo info, int x, int y) {
 }
 
 vec3 sample_texture(GlobalsRef g, TextureInfo info, vec2 uv) {
-    // Wrap uv into [0, 1] first, so texel indices stay within one step of the image.
-    float x = wrap_coord(uv.x, info.wrap & 3u) * float(info.width) - 0.5;
-    float y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2u) & 3u)) * float(info.height) - 0.5;
-    float fx = floor(x);
-    float fy = floor(y);
-    float tx = x - fx;
-    float ty = y - fy;
-    int ix = int(fx);
-    int iy = int(fy);
+    int ix;
+    int iy;
+    vec2 t;
+    bilinear_at(info, uv, ix, iy, t);
+    float tx = t.x;
+    float ty = t.y;
     vec3 a = texel(g, info, ix, iy);
     vec3 b = texel(g, info, ix + 1, iy);
     vec3 c = texel(g, info, ix, iy + 1);

@@ -87,11 +87,7 @@ pub fn decode_mask(bytes: &[u8], shown: &Path) -> Result<(u32, u32, Vec<u32>)> {
 /// reads its colour: what a cutout tests. GLSL twin: `sample_alpha` in
 /// `glsl/include/geometry.glsl`.
 pub fn sample_alpha(texels: &[u32], info: &TextureInfo, uv: Vec2) -> f32 {
-    let x = wrap_coord(uv.x, info.wrap & 3) * info.width as f32 - 0.5;
-    let y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2) & 3)) * info.height as f32 - 0.5;
-    let (fx, fy) = (x.floor(), y.floor());
-    let (tx, ty) = (x - fx, y - fy);
-    let (ix, iy) = (fx as i32, fy as i32);
+    let (ix, iy, tx, ty) = bilinear_at(info, uv);
     let a = |x: i32, y: i32| {
         let xw = wrap_index(x, info.width, info.wrap & 3);
         let yw = wrap_index(y, info.height, (info.wrap >> 2) & 3);
@@ -148,14 +144,20 @@ fn texel(texels: &[u32], info: &TextureInfo, x: i32, y: i32, lut: &[f32; 256]) -
     )
 }
 
-/// Bilinear lookup of linear albedo at `uv` (v up), wrapped by the texture's modes.
-pub fn sample(texels: &[u32], info: &TextureInfo, uv: Vec2, lut: &[f32; 256]) -> Vec3 {
-    // Wrap uv into [0, 1] first, so texel indices stay within one step of the image.
+/// The texel below and left of `uv`'s bilinear footprint and the weights toward the next
+/// ones, `uv` wrapped into [0, 1] first so that texel indices stay within one step of the
+/// image. GLSL twin: `bilinear_at` in `glsl/include/geometry.glsl`.
+#[inline]
+fn bilinear_at(info: &TextureInfo, uv: Vec2) -> (i32, i32, f32, f32) {
     let x = wrap_coord(uv.x, info.wrap & 3) * info.width as f32 - 0.5;
     let y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2) & 3)) * info.height as f32 - 0.5;
     let (fx, fy) = (x.floor(), y.floor());
-    let (tx, ty) = (x - fx, y - fy);
-    let (ix, iy) = (fx as i32, fy as i32);
+    (fx as i32, fy as i32, x - fx, y - fy)
+}
+
+/// Bilinear lookup of linear albedo at `uv` (v up), wrapped by the texture's modes.
+pub fn sample(texels: &[u32], info: &TextureInfo, uv: Vec2, lut: &[f32; 256]) -> Vec3 {
+    let (ix, iy, tx, ty) = bilinear_at(info, uv);
     let a = texel(texels, info, ix, iy, lut);
     let b = texel(texels, info, ix + 1, iy, lut);
     let c = texel(texels, info, ix, iy + 1, lut);
