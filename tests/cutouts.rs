@@ -122,13 +122,7 @@ fn cutouts_solve_on_the_gpu_as_on_the_cpu() {
     let dir = common::tmpdir();
     let path = cutout_screen(dir.path(), 3.0, SOLVER).unwrap();
     let (scene, params) = common::load(&path, &[]);
-    let ctx = std::sync::Arc::new(
-        meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
-            validation: true,
-            device: None,
-        })
-        .expect("a Vulkan device (lavapipe in CI)"),
-    );
+    let ctx = common::gpu_context();
     for bvh in [meshrad::params::BvhKind::Cwbvh, meshrad::params::BvhKind::Bvh2] {
         let mut p = params.clone();
         p.bvh = bvh;

@@ -33,6 +33,23 @@ fn solve_and_render(
     (run, img)
 }
 
+/// The images of an emitter scene ([`square_emitter`] or [`masked_emitter`]) with its
+/// camera moved under the lamp, looking up at it.
+fn looking_up(path: &std::path::Path) -> meshrad::output::image::Images {
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace("position = [0.0, 0.5, 4]", "position = [0.0, 0.1, 0.0]")
+        .replace(
+            "target = [0.0, 0.0, 0.0]",
+            "target = [0.0, 1.0, 0.0]\nup = [0.0, 0.0, 1.0]",
+        );
+    assert!(text.contains("position = [0.0, 0.1, 0.0]"), "{text}");
+    std::fs::write(path, text).unwrap();
+    let (scene, params) = common::load(path, &[]);
+    let (_, img) = solve_and_render(&scene, &params);
+    img
+}
+
 /// A floor under a sky of radiance 1 ([`sky_plane`]).
 fn small_sky(dir: &std::path::Path) -> std::path::PathBuf {
     sky_plane(dir, 4.0, false, 1.0, TINY).unwrap()
@@ -233,17 +250,7 @@ fn emission_textures_light_by_texel() {
         );
     }
     // Seen from below, the lamp shows the mask: L_e under the strip, nothing beside it.
-    let text = std::fs::read_to_string(&path)
-        .unwrap()
-        .replace("position = [0.0, 0.5, 4]", "position = [0.0, 0.1, 0.0]")
-        .replace(
-            "target = [0.0, 0.0, 0.0]",
-            "target = [0.0, 1.0, 0.0]\nup = [0.0, 0.0, 1.0]",
-        );
-    assert!(text.contains("position = [0.0, 0.1, 0.0]"), "{text}");
-    std::fs::write(&path, text).unwrap();
-    let (scene, params) = common::load(&path, &[]);
-    let (_, img) = solve_and_render(&scene, &params);
+    let img = looking_up(&path);
     let row = (img.height / 2 * img.width) as usize;
     let px: Vec<f32> = (0..img.width as usize).map(|x| img.direct[row + x].x).collect();
     let (lit, dark) = (
@@ -261,17 +268,7 @@ fn emitters_show_their_radiance() {
     let dir = common::tmpdir();
     let solver = "levels = 3\ncoarsest = 40\nsender_level = 2\nrays = 64\nbounces = 1\n";
     let path = square_emitter(dir.path(), 4.0, 2.0, 1.0, LE, solver).unwrap();
-    let text = std::fs::read_to_string(&path)
-        .unwrap()
-        .replace("position = [0.0, 0.5, 4]", "position = [0.0, 0.1, 0.0]")
-        .replace(
-            "target = [0.0, 0.0, 0.0]",
-            "target = [0.0, 1.0, 0.0]\nup = [0.0, 0.0, 1.0]",
-        );
-    assert!(text.contains("position = [0.0, 0.1, 0.0]"), "{text}");
-    std::fs::write(&path, text).unwrap();
-    let (scene, params) = common::load(&path, &[]);
-    let (_, img) = solve_and_render(&scene, &params);
+    let img = looking_up(&path);
     let centre = img.direct[(img.height / 2 * img.width + img.width / 2) as usize];
     assert!((centre.x as f64 - LE).abs() < 1e-6, "{centre}");
 }

@@ -11,7 +11,7 @@ use meshrad::device::backend::State;
 use meshrad::device::GpuBackend;
 use meshrad::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
 use meshrad::geom::Ray;
-use meshrad::gpu::{Context, ContextOptions};
+use meshrad::gpu::Context;
 use meshrad::hierarchy::Hierarchy;
 use meshrad::progress::Progress;
 use meshrad::transport::cpu::{gather_integral, node_world, CpuBackend};
@@ -19,16 +19,7 @@ use meshrad::transport::{reconstruct::Sender, Backend};
 use meshrad::{Scene, SolverParams, Variant};
 
 fn context() -> Arc<Context> {
-    let ctx = Context::new(&ContextOptions {
-        validation: true,
-        device: std::env::var("MESHRAD_TEST_DEVICE").ok(),
-    })
-    .unwrap_or_else(|e| panic!("no usable Vulkan device with validation: {e}"));
-    eprintln!(
-        "device: {} ({} {})",
-        ctx.info.name, ctx.info.driver_name, ctx.info.driver_info
-    );
-    Arc::new(ctx)
+    common::gpu_context()
 }
 
 fn cornell(levels: u32, rays: u32, variant: Variant) -> (Scene, SolverParams) {

@@ -92,13 +92,7 @@ fn smooth_normals_solve_on_the_gpu_as_on_the_cpu() {
     let dir = common::tmpdir();
     let smooth = lit_sphere(dir.path(), 1.0, 1, true, SOLVER).unwrap();
     let (scene, params) = common::load(&smooth, &[]);
-    let ctx = std::sync::Arc::new(
-        meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
-            validation: true,
-            device: None,
-        })
-        .expect("a Vulkan device (lavapipe in CI)"),
-    );
+    let ctx = common::gpu_context();
     let g = meshrad::solve(
         &scene,
         &params,

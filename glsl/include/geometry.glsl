@@ -144,34 +144,29 @@ uint wrap_index(int i, uint n, uint m) {
     return uint(clamp(i, 0, k - 1));
 }
 
-// Twin of texture::bilinear_at: the texel below and left of uv's footprint (ix, iy) and
+// Twin of texture::bilinear_at: the texel below and left of uv's footprint (returned) and
 // the weights toward the next ones (t), uv wrapped into [0, 1] first so that texel
 // indices stay within one step of the image.
-void bilinear_at(TextureInfo info, vec2 uv, out int ix, out int iy, out vec2 t) {
+ivec2 bilinear_at(TextureInfo info, vec2 uv, out vec2 t) {
     float x = wrap_coord(uv.x, info.wrap & 3u) * float(info.width) - 0.5;
     float y = (1.0 - wrap_coord(uv.y, (info.wrap >> 2u) & 3u)) * float(info.height) - 0.5;
     float fx = floor(x);
     float fy = floor(y);
     t = vec2(x - fx, y - fy);
-    ix = int(fx);
-    iy = int(fy);
+    return ivec2(int(fx), int(fy));
 }
 
 // Twin of texture::sample_alpha: a texture's alpha byte (linear), bilinear.
 float sample_alpha(GlobalsRef g, TextureInfo info, vec2 uv) {
-    int ix;
-    int iy;
     vec2 t;
-    bilinear_at(info, uv, ix, iy, t);
-    float tx = t.x;
-    float ty = t.y;
+    ivec2 i = bilinear_at(info, uv, t);
     float a[4];
     for (int k = 0; k < 4; k++) {
-        uint xw = wrap_index(ix + (k & 1), info.width, info.wrap & 3u);
-        uint yw = wrap_index(iy + (k >> 1), info.height, (info.wrap >> 2u) & 3u);
+        uint xw = wrap_index(i.x + (k & 1), info.width, info.wrap & 3u);
+        uint yw = wrap_index(i.y + (k >> 1), info.height, (info.wrap >> 2u) & 3u);
         a[k] = float(g.texels.v[info.offset + yw * info.width + xw] >> 24u) * (1.0 / 255.0);
     }
-    return (a[0] * (1.0 - tx) + a[1] * tx) * (1.0 - ty) + (a[2] * (1.0 - tx) + a[3] * tx) * ty;
+    return (a[0] * (1.0 - t.x) + a[1] * t.x) * (1.0 - t.y) + (a[2] * (1.0 - t.x) + a[3] * t.x) * t.y;
 }
 
 // Twin of Scene::stops: whether a ray that meets global triangle t at barycentrics

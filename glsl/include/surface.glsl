@@ -15,17 +15,13 @@ vec3 texel(GlobalsRef g, TextureInfo info, int x, int y) {
 }
 
 vec3 sample_texture(GlobalsRef g, TextureInfo info, vec2 uv) {
-    int ix;
-    int iy;
     vec2 t;
-    bilinear_at(info, uv, ix, iy, t);
-    float tx = t.x;
-    float ty = t.y;
-    vec3 a = texel(g, info, ix, iy);
-    vec3 b = texel(g, info, ix + 1, iy);
-    vec3 c = texel(g, info, ix, iy + 1);
-    vec3 d = texel(g, info, ix + 1, iy + 1);
-    return (a * (1.0 - tx) + b * tx) * (1.0 - ty) + (c * (1.0 - tx) + d * tx) * ty;
+    ivec2 i = bilinear_at(info, uv, t);
+    vec3 a = texel(g, info, i.x, i.y);
+    vec3 b = texel(g, info, i.x + 1, i.y);
+    vec3 c = texel(g, info, i.x, i.y + 1);
+    vec3 d = texel(g, info, i.x + 1, i.y + 1);
+    return (a * (1.0 - t.x) + b * t.x) * (1.0 - t.y) + (c * (1.0 - t.x) + d * t.x) * t.y;
 }
 
 // Albedo at barycentrics (b1, b2) of global triangle `t`.

@@ -116,17 +116,7 @@ pub fn in_crevice_within_traced(scene: &Scene, o: usize, c: &Candidate, d_min_ob
         let u = Vec2::new((k as f32 + 0.5) / 8.0, (k as f32 * 0.618_034).fract());
         let d = cosine_direction(c.normal, t, b, u, phi0);
         let ray = Ray { o: origin, d };
-        if crate::geom::bvh::trace_cw(
-            &scene.cw,
-            &scene.tris,
-            scene.cw.roots[o],
-            &ray,
-            d_min_obj,
-            true,
-            |t, b1, b2| scene.stops(t, b1, b2),
-        )
-        .is_some()
-        {
+        if scene.trace_object(o, &ray, d_min_obj, true).is_some() {
             near += 1;
         }
     }

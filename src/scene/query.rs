@@ -28,11 +28,7 @@ impl Scene {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            if let Some((tri, t, b1, b2)) =
-                bvh::trace_cw(&self.cw, &self.tris, self.cw.roots[i], &r, tmax, false, |t, b1, b2| {
-                    self.stops(t, b1, b2)
-                })
-            {
+            if let Some((tri, t, b1, b2)) = self.trace_object(i, &r, tmax, false) {
                 tmax = t;
                 best = Some(Hit {
                     object: i as u32,
@@ -48,15 +44,12 @@ impl Scene {
 
     /// Whether anything blocks a world-space ray in `(0, tmax)`.
     pub fn occluded(&self, ray: &Ray, tmax: f32) -> bool {
-        self.objects.iter().zip(&self.cw.roots).any(|(o, &root)| {
+        self.objects.iter().enumerate().any(|(i, o)| {
             let r = Ray {
                 o: xform_point(&o.to_object, ray.o),
                 d: xform_vector(&o.to_object, ray.d),
             };
-            bvh::trace_cw(&self.cw, &self.tris, root, &r, tmax, true, |t, b1, b2| {
-                self.stops(t, b1, b2)
-            })
-            .is_some()
+            self.trace_object(i, &r, tmax, true).is_some()
         })
     }
 
@@ -266,6 +259,16 @@ impl Scene {
             uv[0] * b0 + uv[2] * b1 + uv[4] * b2,
             uv[1] * b0 + uv[3] * b1 + uv[5] * b2,
         )
+    }
+
+    /// Closest (or, with `any`, first) hit in `(0, tmax)` of an object-space ray in object
+    /// `o`'s CWBVH, every hit asked [`Scene::stops`] first: the global triangle, t and
+    /// barycentrics. Every traversal of the scene goes through here.
+    #[inline]
+    pub fn trace_object(&self, o: usize, ray: &Ray, tmax: f32, any: bool) -> Option<(u32, f32, f32, f32)> {
+        bvh::trace_cw(&self.cw, &self.tris, self.cw.roots[o], ray, tmax, any, |t, b1, b2| {
+            self.stops(t, b1, b2)
+        })
     }
 
     /// Whether a ray that meets global triangle `tri` at barycentrics `(b1, b2)` stops

@@ -65,15 +65,7 @@ impl ObjectReach {
         let mut lit = vec![false; self.component.len()];
         // Marks the component of the first side an object-space ray meets in object `o`.
         let mut mark = |o: usize, ray: Ray| {
-            if let Some((t, _, _, _)) = crate::geom::bvh::trace_cw(
-                &scene.cw,
-                &scene.tris,
-                scene.cw.roots[o],
-                &ray,
-                f32::INFINITY,
-                false,
-                |t, b1, b2| scene.stops(t, b1, b2),
-            ) {
+            if let Some((t, _, _, _)) = scene.trace_object(o, &ray, f32::INFINITY, false) {
                 let g = crate::geom::ray::tri_normal(&scene.tris[t as usize]);
                 let back = g.dot(ray.d) > 0.0;
                 lit[self.component[t as usize * 2 + back as usize] as usize] = true;
@@ -154,15 +146,7 @@ fn outside_marks(scene: &Scene, paths: u32, bounces: u32, seed: u32) -> Vec<bool
                 };
                 let mut ray = Ray { o: a, d };
                 for _ in 0..bounces {
-                    let Some((t, dist, b1, b2)) = crate::geom::bvh::trace_cw(
-                        &scene.cw,
-                        &scene.tris,
-                        scene.cw.roots[i],
-                        &ray,
-                        f32::INFINITY,
-                        false,
-                        |t, b1, b2| scene.stops(t, b1, b2),
-                    ) else {
+                    let Some((t, dist, b1, b2)) = scene.trace_object(i, &ray, f32::INFINITY, false) else {
                         break;
                     };
                     let _ = dist;

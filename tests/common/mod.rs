@@ -9,6 +9,21 @@ use std::path::{Path, PathBuf};
 use meshrad::progress::Progress;
 use meshrad::{Hierarchy, Scene, Solution, SolverParams};
 
+/// A Vulkan context with validation on (`MESHRAD_TEST_DEVICE` picks the device; lavapipe
+/// in CI, where a missing device fails the test).
+pub fn gpu_context() -> std::sync::Arc<meshrad::gpu::Context> {
+    let ctx = meshrad::gpu::Context::new(&meshrad::gpu::ContextOptions {
+        validation: true,
+        device: std::env::var("MESHRAD_TEST_DEVICE").ok(),
+    })
+    .unwrap_or_else(|e| panic!("no usable Vulkan device with validation: {e}"));
+    eprintln!(
+        "device: {} ({} {})",
+        ctx.info.name, ctx.info.driver_name, ctx.info.driver_info
+    );
+    std::sync::Arc::new(ctx)
+}
+
 /// A fresh temporary directory that lives as long as the returned guard.
 pub fn tmpdir() -> tempfile::TempDir {
     tempfile::tempdir().expect("temporary directory")
