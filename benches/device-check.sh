@@ -138,15 +138,15 @@ for dev in "${devices[@]}"; do
   {
     echo "## Device $dev: $name"
     echo
-    echo "| check | result | total | direct | indirect | CPU end to end | device end to end | device solve | validation errors | kernels (s) |"
-    echo "|---|---|---|---|---|---|---|---|---|---|"
+    echo "| check | result | total | direct | indirect | CPU end to end | device end to end | device solve | device image: kernel / pass | validation errors | kernels (s) |"
+    echo "|---|---|---|---|---|---|---|---|---|---|---|"
   } >>"$report"
   for entry in "${scenes[@]}"; do
     IFS='|' read -r sname file public <<<"$entry"
     if [ "$public" = yes ]; then
       mesh=$(sed -n 's/^mesh = "\$MESHRAD_SCENES\/\(.*\)"/\1/p' "$file" | head -1)
       if [ ! -f "$MESHRAD_SCENES/$mesh" ]; then
-        echo "| $sname | skipped: \`$MESHRAD_SCENES/$mesh\` missing | | | | | | | | |" >>"$report"
+        echo "| $sname | skipped: \`$MESHRAD_SCENES/$mesh\` missing | | | | | | | | | |" >>"$report"
         continue
       fi
     fi
@@ -157,7 +157,7 @@ for dev in "${devices[@]}"; do
       cpu_wall=$wall
       echo "$cpu_wall" >"$cpu.wall"
       if [ "$code" != 0 ]; then
-        echo "| $sname | **FAIL**: the CPU solve exited $code (\`$cpu.log\`) | | | | | | | | |" >>"$report"
+        echo "| $sname | **FAIL**: the CPU solve exited $code (\`$cpu.log\`) | | | | | | | | | |" >>"$report"
         failed=1
         continue
       fi
@@ -165,7 +165,7 @@ for dev in "${devices[@]}"; do
     cpu_wall=$(cat "$cpu.wall")
     solve "$file" gpu "$dev" "$d/$sname"
     if [ "$code" != 0 ]; then
-      echo "| $sname | **FAIL**: the device solve exited $code (\`$d/$sname.log\`) | | | | $cpu_wall s | $wall s | | | |" >>"$report"
+      echo "| $sname | **FAIL**: the device solve exited $code (\`$d/$sname.log\`) | | | | $cpu_wall s | $wall s | | | | |" >>"$report"
       failed=1
       continue
     fi
@@ -177,9 +177,18 @@ for dev in "${devices[@]}"; do
       result="**FAIL**"
       failed=1
     fi
-    printf '| %s | %s | %s | %s | %s | %s s | %s s | %s s | %s | %s |\n' "$sname" "$result" "$t" "$dr" "$ind" \
+    # The image must have been drawn on the device (kernel `image`), not on the CPU.
+    if grep -q '"drawn_on": *"device"' "$d/$sname/stats.json"; then
+      img=$(awk -v k="$(stat "$d/$sname/stats.json" image_kernel)" -v t="$(stat "$d/$sname/stats.json" image_pass)" \
+        'BEGIN { printf "%.3f / %.3f s", k, t }')
+    else
+      img="**not on the device**"
+      result="**FAIL**"
+      failed=1
+    fi
+    printf '| %s | %s | %s | %s | %s | %s s | %s s | %s s | %s | %s | %s |\n' "$sname" "$result" "$t" "$dr" "$ind" \
       "$cpu_wall" "$wall" "$(awk -v s="$(stat "$d/$sname/stats.json" solve)" 'BEGIN { printf "%.2f", s }')" \
-      "${verrs:-?}" "$(kernels "$d/$sname.log")" >>"$report"
+      "$img" "${verrs:-?}" "$(kernels "$d/$sname.log")" >>"$report"
   done
 
   # An animate sequence: every frame on the device against the CPU's.
@@ -208,7 +217,7 @@ for dev in "${devices[@]}"; do
     result="**FAIL**: exit $code, $n frames (\`$d/animate.log\`)"
   fi
   [ "$result" = pass ] || failed=1
-  echo "| animate ($n frames, worst frame) | $result | $worst | | | | $wall s | | | |" >>"$report"
+  echo "| animate ($n frames, worst frame) | $result | $worst | | | | $wall s | | | | |" >>"$report"
 
   # The paper's Table 2 on this device.
   t2=(bench table2 --device "$dev" --out "$d/table2" -q)
@@ -218,9 +227,9 @@ for dev in "${devices[@]}"; do
   code=$?
   wall=$(elapsed "$t0" "$(now)")
   if [ "$code" = 0 ]; then
-    echo "| bench table2$([ "$smoke" = 1 ] && echo ' --smoke') | pass | | | | | $wall s | | | |" >>"$report"
+    echo "| bench table2$([ "$smoke" = 1 ] && echo ' --smoke') | pass | | | | | $wall s | | | | |" >>"$report"
   else
-    echo "| bench table2 | **FAIL**: exit $code (\`$d/table2.log\`) | | | | | $wall s | | | |" >>"$report"
+    echo "| bench table2 | **FAIL**: exit $code (\`$d/table2.log\`) | | | | | $wall s | | | | |" >>"$report"
     failed=1
   fi
   {
@@ -238,7 +247,9 @@ done
   echo
   echo "Columns: total, direct, indirect are the relative RMS of the device's image against the CPU's;"
   echo "end to end is the wall time of the whole command (load to written outputs); device solve is"
-  echo "stats.json's \`seconds.solve\`; kernel times are what \`--stats\` printed."
+  echo "stats.json's \`seconds.solve\`; the device image is drawn where the device solved (kernel \`image\`):"
+  echo "its kernel time (GPU timestamps) and the whole pass (stats.json \`image.device_seconds\`);"
+  echo "kernel times are what \`--stats\` printed."
   echo
   [ "$failed" = 0 ] && echo "**All checks passed.**" || echo "**Some checks failed.**"
 } >>"$report"

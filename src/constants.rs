@@ -106,3 +106,15 @@ const _: () = {
     assert!(DISPATCH_RAYS + DISPATCH_WORDS <= DISPATCH_REDUCE);
     assert!(DISPATCH_REDUCE + DISPATCH_WORDS <= DISPATCH_PER_BATCH);
 };
+/// `ImageInfo::filter_kind`: the pixel filter (`scene::camera::Filter`).
+pub const FILTER_BOX: u32 = 0;
+pub const FILTER_GAUSSIAN: u32 = 1;
+/// `ImageInfo::mode`: how the `image` kernel reads the indirect light at a sample's hit
+/// (`transport::readout`): the basis, a gather where the basis read is doubted
+/// (`doubt_gather`), a gather everywhere (`final_gather_pixels`).
+pub const IMAGE_BASIS: u32 = 0;
+pub const IMAGE_DOUBT: u32 = 1;
+pub const IMAGE_GATHER: u32 = 2;
+/// Most pixels of one `image` dispatch (a band of rows), so that no submission runs long
+/// and the band's buffer stays small (2^18 pixels: 8 MiB).
+pub const IMAGE_BAND_PIXELS: u32 = 262144;

@@ -447,6 +447,12 @@ impl Editor {
         Ok(c)
     }
 
+    /// The engine of the solves, beside the scene, hierarchy and parameters they used (an
+    /// image of the last solve is drawn where it ran: `output::image::render_on`).
+    pub fn engine_and_scene(&mut self) -> (&mut Engine, &Scene, &Hierarchy, &SolverParams) {
+        (&mut self.engine, &self.scene, &self.hierarchy, &self.params)
+    }
+
     /// Whether edits wait for a solve.
     pub fn is_stale(&self) -> bool {
         self.pending != Changed::default()

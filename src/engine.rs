@@ -6,6 +6,7 @@
 
 use std::sync::Arc;
 
+use crate::device::image::Pixels;
 use crate::device::poisson as device_poisson;
 use crate::device::{GpuBackend, GpuReport, GpuResident};
 use crate::error::Result;
@@ -206,6 +207,21 @@ impl Engine {
                 *links = b.take_links();
                 Ok((s, None))
             }
+        }
+    }
+
+    /// The camera's view of the last [`Engine::solve`] drawn where it ran, if that was a
+    /// device whose state is still resident (`device::image`): `None` on the CPU or with
+    /// nothing resident, where the caller draws it on the CPU (`output::image::render`).
+    pub fn render_on_device(
+        &mut self,
+        scene: &Scene,
+        params: &SolverParams,
+        progress: &Progress,
+    ) -> Option<Result<Pixels>> {
+        match &mut self.place {
+            Place::Gpu { ctx, resident: Some(r) } => Some(r.render(ctx, scene, params, progress)),
+            _ => None,
         }
     }
 

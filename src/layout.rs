@@ -169,3 +169,35 @@ const _: () = {
     assert!(std::mem::offset_of!(BvhNode, prim_count) == 32);
     assert!(std::mem::offset_of!(BvhNode, first_index) == 36);
 };
+
+/// What the `image` kernel reads besides `Globals` (GLSL `ImageInfoRef` in
+/// `glsl/image.comp`): the camera, the corner normals and the gather's directions, and how
+/// the indirect light is read (`device::image`).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct ImageInfo {
+    /// The camera's position, and the tangent of half its field of view in `w`.
+    pub position: [f32; 4],
+    pub forward: [f32; 4],
+    pub right: [f32; 4],
+    pub up: [f32; 4],
+    /// Device address of the corner normals (9 floats per triangle), or 0 without.
+    pub normals: u64,
+    /// Device address of the gather's directions (`halton_table(gather_rays)`).
+    pub halton: u64,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// [`crate::constants::FILTER_BOX`] or [`crate::constants::FILTER_GAUSSIAN`].
+    pub filter_kind: u32,
+    /// The output level the basis is read on.
+    pub level: u32,
+    pub seed: u32,
+    /// [`crate::constants::IMAGE_BASIS`], `IMAGE_DOUBT` or `IMAGE_GATHER`.
+    pub mode: u32,
+    pub gather_rays: u32,
+    pub doubt_nodes: u32,
+    pub doubt_spread: f32,
+    pub pad0: u32,
+    pub pad1: u32,
+}

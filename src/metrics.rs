@@ -116,6 +116,90 @@ pub fn image_rel_rms(estimate: &[Vec3], reference: &[Vec3]) -> f64 {
     }
 }
 
+/// An image's error against a converged reference image (issue #33), over all pixels and
+/// away from edges, with the reference's own noise taken out: twin of
+/// `experiments/images/image_error.py`.
+#[derive(Clone, Copy, Debug, Default, Serialize)]
+pub struct ImageError {
+    /// Relative RMS over every pixel, edges included: `sqrt(mean|e − r|² − noise²) /
+    /// mean(r)`, channels pooled.
+    pub all: f64,
+    /// The same over the smooth pixels: none of whose 4 neighbours differs from it by more
+    /// than 10 % of the larger luminance (plus 1 % of the mean) in the reference.
+    pub smooth: f64,
+    /// Σ estimate / Σ reference over all pixels.
+    pub energy: f64,
+    pub smooth_pixels: usize,
+    pub pixels: usize,
+    /// The reference's own noise over all pixels, relative to its mean.
+    pub reference_noise: f64,
+}
+
+/// [`ImageError`] of `img` against two independent references `a` and `b` of the same
+/// `width × height` image (e.g. `meshrad reference --camera` with two seeds): their mean
+/// is the reference, and a quarter of their squared difference per pixel its noise
+/// (the variance of a mean of two), whose mean is subtracted from the squared error.
+pub fn image_error(img: &[Vec3], a: &[Vec3], b: &[Vec3], width: usize, height: usize) -> ImageError {
+    let n = width * height;
+    assert!(img.len() == n && a.len() == n && b.len() == n, "image sizes differ");
+    let r: Vec<DVec3> = a
+        .iter()
+        .zip(b)
+        .map(|(a, b)| 0.5 * (a.as_dvec3() + b.as_dvec3()))
+        .collect();
+    let noise2: Vec<f64> = a
+        .iter()
+        .zip(b)
+        .map(|(a, b)| 0.25 * (a.as_dvec3() - b.as_dvec3()).length_squared() / 3.0)
+        .collect();
+    let lum: Vec<f64> = r.iter().map(|v| 0.2126 * v.x + 0.7152 * v.y + 0.0722 * v.z).collect();
+    let floor = 0.01 * lum.iter().sum::<f64>() / n.max(1) as f64;
+    let mut edge = vec![false; n];
+    for y in 0..height {
+        for x in 0..width {
+            let i = y * width + x;
+            for j in [(x + 1 < width).then(|| i + 1), (y + 1 < height).then(|| i + width)]
+                .into_iter()
+                .flatten()
+            {
+                if (lum[i] - lum[j]).abs() > 0.1 * lum[i].max(lum[j]) + floor {
+                    edge[i] = true;
+                    edge[j] = true;
+                }
+            }
+        }
+    }
+    let rel = |keep: &dyn Fn(usize) -> bool| {
+        let (mut e2, mut n2, mut m, mut k) = (0.0, 0.0, 0.0, 0usize);
+        for i in (0..n).filter(|&i| keep(i)) {
+            e2 += (img[i].as_dvec3() - r[i]).length_squared() / 3.0;
+            n2 += noise2[i];
+            m += mean3(r[i]);
+            k += 1;
+        }
+        if k == 0 || m <= 0.0 {
+            return 0.0;
+        }
+        let k = k as f64;
+        ((e2 / k - n2 / k).max(0.0)).sqrt() / (m / k)
+    };
+    let sum_e: f64 = img.iter().map(|v| mean3(v.as_dvec3())).sum();
+    let sum_r: f64 = r.iter().map(|v| mean3(*v)).sum();
+    let mean_r = sum_r / n.max(1) as f64;
+    ImageError {
+        all: rel(&|_| true),
+        smooth: rel(&|i| !edge[i]),
+        energy: if sum_r > 0.0 { sum_e / sum_r } else { 0.0 },
+        smooth_pixels: edge.iter().filter(|e| !**e).count(),
+        pixels: n,
+        reference_noise: if mean_r > 0.0 {
+            (noise2.iter().sum::<f64>() / n.max(1) as f64).sqrt() / mean_r
+        } else {
+            0.0
+        },
+    }
+}
+
 /// Energy balance of a closed scene: `(Σ_i (1 − ρ_i) E_i A_i) / Φ − 1`, the absorbed power
 /// over the emitted one, from per-sample irradiance `E_i`, albedo `ρ_i` and area `A_i`
 /// (RGB mean). With `K` bounces the series misses `ρ^{K+1}/(1 − ρ)` of the indirect part.
@@ -130,6 +214,28 @@ pub fn energy_balance(samples: &[(Vec3, Vec3, f64)], power: Vec3) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn image_error_takes_the_references_noise_out_and_finds_edges() {
+        // A 8×4 image: left half 1, right half 3 (an edge between columns 3 and 4).
+        let (w, h) = (8, 4);
+        let r: Vec<Vec3> = (0..w * h)
+            .map(|i| Vec3::splat(if i % w < 4 { 1.0 } else { 3.0 }))
+            .collect();
+        // Two references ±0.1 about it: noise 0.1 per pixel, taken out exactly.
+        let a: Vec<Vec3> = r.iter().map(|v| *v + Vec3::splat(0.1)).collect();
+        let b: Vec<Vec3> = r.iter().map(|v| *v - Vec3::splat(0.1)).collect();
+        let e = image_error(&r, &a, &b, w, h);
+        assert!(e.all < 1e-9 && e.smooth < 1e-9, "{e:?}");
+        assert_eq!(e.smooth_pixels, w * h - 2 * h);
+        assert!((e.reference_noise - 0.1 / 2.0).abs() < 1e-9, "{e:?}");
+        // 10 % too bright everywhere: the noise (0.01 in the mean square) is taken out.
+        let img: Vec<Vec3> = r.iter().map(|v| *v * 1.1).collect();
+        let e = image_error(&img, &a, &b, w, h);
+        let want = ((0.01 * (1.0 + 9.0) / 2.0 - 0.01f64).sqrt()) / 2.0;
+        assert!((e.all - want).abs() < 1e-6, "{} {want}", e.all);
+        assert!((e.energy - 1.1).abs() < 1e-6);
+    }
 
     fn est(v: f64) -> Estimate {
         Estimate {

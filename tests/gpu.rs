@@ -746,3 +746,120 @@ fn device_dart_throwing_gives_the_host_nodes() {
     }
     assert_eq!(ctx.validation_errors(), 0);
 }
+
+/// Relative RMS of `a` against `b` over all pixels (`sqrt(Σ|a−b|² / Σ|b|²)`).
+fn image_rel_rms(a: &[Vec3], b: &[Vec3]) -> f64 {
+    let (mut num, mut den) = (0.0f64, 0.0f64);
+    for (x, y) in a.iter().zip(b) {
+        num += (*x - *y).as_dvec3().length_squared();
+        den += y.as_dvec3().length_squared();
+    }
+    (num / den.max(1e-300)).sqrt()
+}
+
+/// Issue #33: the image drawn on the device that solved (kernel `image`) equals the CPU's
+/// image of the same solution to float tolerance, for every way the indirect light is
+/// read (the basis, a gather where it is doubted, a gather everywhere), both pixel
+/// filters, every variant, lights, emitting surfaces (an emission texture too), a
+/// constant sky and an environment map, textures and shading normals.
+#[test]
+fn images_drawn_on_the_device_equal_the_cpu_images() {
+    let ctx = context();
+    let dir = common::tmpdir();
+    let small = |s: &mut Scene, spp: u32| {
+        s.camera.width = 48;
+        s.camera.height = 40;
+        s.camera.spp = spp;
+    };
+    let mut cases: Vec<(String, Scene, SolverParams)> = Vec::new();
+    for variant in Variant::ALL {
+        let (mut s, mut p) = cornell(4, 64, variant);
+        small(&mut s, 4);
+        p.bounces = 2;
+        match variant {
+            // A gather at every sample (`final_gather_pixels`).
+            Variant::Original => p.final_gather_pixels = 4,
+            // The basis alone, through the Gaussian filter.
+            Variant::Approx => {
+                p.doubt_gather = 0;
+                s.camera.filter = meshrad::scene::camera::Filter::Gaussian;
+            }
+            // A gather where the basis is doubted (the default), made frequent.
+            Variant::Modified => p.doubt_nodes = 6,
+        }
+        cases.push((format!("Cornell box, {variant:?}"), s, p));
+    }
+    let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 64\nbounces = 2\n";
+    let (mut s, mut p) = Scene::embedded_file("cornell_area.toml", &[]).unwrap();
+    small(&mut s, 2);
+    (p.levels, p.sender_level, p.rays, p.bounces) = (4, 3, 32, 2);
+    cases.push(("area-lit box".into(), s, p));
+    let sky = meshrad::analytic::sky_plane(dir.path(), 4.0, true, 1.0, solver).unwrap();
+    let (mut s, p) = common::load(&sky, &[]);
+    small(&mut s, 2);
+    cases.push(("constant sky".into(), s, p));
+    let map = dir.path().join("map.toml");
+    let text = std::fs::read_to_string(&sky).unwrap();
+    std::fs::write(
+        &map,
+        text.replace("radiance = [1, 1, 1]", "envmap = \"sky.exr\"\nrotate = 25.0"),
+    )
+    .unwrap();
+    exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 16, 8, |x, y| {
+        let b = if (5..8).contains(&x) && y == 2 { 30.0f32 } else { 1.0 };
+        (0.3 * b, 0.4 * b + 0.01 * x as f32, 0.2 * b + 0.02 * y as f32)
+    })
+    .unwrap();
+    let (mut s, p) = common::load(&map, &[]);
+    small(&mut s, 2);
+    cases.push(("environment map".into(), s, p));
+    let masked = meshrad::analytic::masked_emitter(&dir.path().join("masked"), 4.0, 1.0, 1.0, 2.0, solver).unwrap();
+    let (mut s, p) = common::load(&masked, &[]);
+    small(&mut s, 2);
+    cases.push(("emission texture".into(), s, p));
+    let sphere = meshrad::analytic::lit_sphere(&dir.path().join("sphere"), 1.0, 1, true, solver).unwrap();
+    let (mut s, p) = common::load(&sphere, &[]);
+    assert!(!s.normals.is_empty());
+    small(&mut s, 2);
+    cases.push(("shading normals".into(), s, p));
+    let boxed = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/BoxTextured/scene.toml");
+    let (mut s, p) = common::load(&boxed, &[]);
+    small(&mut s, 2);
+    cases.push(("BoxTextured (glTF, textured)".into(), s, p));
+    let hidden = Progress::hidden();
+    for (name, s, p) in &cases {
+        let mut engine = meshrad::Engine::gpu(ctx.clone());
+        let run = meshrad::solve(s, p, &mut engine, &hidden).unwrap();
+        let cpu = meshrad::output::image::render(s, &run.hierarchy, &run.solution, p, &hidden);
+        let gpu = meshrad::output::image::render_on(&mut engine, s, &run.hierarchy, &run.solution, p, &hidden).unwrap();
+        assert!(gpu.device.is_some(), "{name}: drawn on the CPU");
+        let (d, i) = (
+            image_rel_rms(&gpu.direct, &cpu.direct),
+            image_rel_rms(&gpu.indirect, &cpu.indirect),
+        );
+        let t = image_rel_rms(&gpu.total(), &cpu.total());
+        eprintln!(
+            "{name}: direct {d:.2e}, indirect {i:.2e}, total {t:.2e}; doubted samples GPU {} CPU {}, basis {} / {}",
+            gpu.doubted_samples, cpu.doubted_samples, gpu.basis_samples, cpu.basis_samples
+        );
+        let lit = cpu.total().iter().filter(|v| v.max_element() > 0.0).count();
+        assert!(
+            lit > cpu.direct.len() / 4,
+            "{name}: {lit} lit pixels: the case tests nothing"
+        );
+        assert!(d <= 0.005 && i <= 0.005 && t <= 0.005, "{name}");
+        if name.ends_with("Modified") {
+            assert!(cpu.doubted_samples > 0, "{name}: no sample was doubted");
+        }
+        assert_eq!(
+            gpu.doubted_samples + gpu.basis_samples,
+            cpu.doubted_samples + cpu.basis_samples,
+            "{name}"
+        );
+        assert!(
+            gpu.doubted_samples.abs_diff(cpu.doubted_samples) <= 1 + cpu.doubted_samples / 100,
+            "{name}"
+        );
+        assert_eq!(ctx.validation_errors(), 0, "{name}");
+    }
+}

@@ -31,7 +31,7 @@ fn allowed() -> BTreeMap<&'static str, Vec<&'static str>> {
     t.insert("engine", [&method[..], &["gpu", "device"]].concat());
     t.insert("run", [&method[..], &["gpu", "device", "engine"]].concat());
     t.insert("editor", [&method[..], &["device", "engine", "run"]].concat());
-    t.insert("output", [&method[..], &["reference"]].concat());
+    t.insert("output", [&method[..], &["reference", "engine"]].concat());
     let everything_below_cli = [
         &method[..],
         &[

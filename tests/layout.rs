@@ -12,8 +12,8 @@ use std::process::Command;
 use meshrad::device::globals::Globals;
 use meshrad::device::kernels::{
     accumulate::AccumulatePush, batches::BatchesPush, clips::ClipsPush, compact::CompactPush, delta::DeltaPush,
-    direct::DirectPush, energy::EnergyPush, gather::GatherPush, oracle::OraclePush, poisson::PoissonPush,
-    pulldown::PulldownPush,
+    direct::DirectPush, energy::EnergyPush, gather::GatherPush, image::ImagePush, oracle::OraclePush,
+    poisson::PoissonPush, pulldown::PulldownPush,
 };
 use meshrad::layout::*;
 
@@ -225,8 +225,33 @@ fn gpu_struct_offsets_match_the_host_structs() {
         sender_level,
         link_capacity
     );
+    same!(
+        ImageInfo,
+        "ImageInfoRef",
+        position,
+        forward,
+        right,
+        up,
+        normals,
+        halton,
+        width,
+        height,
+        spp,
+        filter_kind,
+        level,
+        seed,
+        mode,
+        gather_rays,
+        doubt_nodes,
+        doubt_spread,
+        pad0,
+        pad1
+    );
+    assert_eq!(std::mem::size_of::<ImageInfo>(), 128);
     // Each kernel's push constants (one block per kernel; the four kernels of a gathering
     // batch share GatherPush).
+    check("ImagePush", "g", offset_of!(ImagePush, globals));
+    same!(ImagePush, "ImagePush", info, pixels, first_row, rows);
     check("DirectPush", "g", offset_of!(DirectPush, globals));
     same!(DirectPush, "DirectPush", first, count);
     check("AccumulatePush", "g", offset_of!(AccumulatePush, globals));

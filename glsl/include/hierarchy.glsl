@@ -61,11 +61,17 @@ bool on_sheet(GlobalsRef g, vec3 v, vec3 nj, float h) {
     return g.plane <= 0.0 || abs(dot(v, nj)) < g.plane * h;
 }
 
-// Σ w_j v_j (xyz) and Σ w_j (w) over level l of object `ob`.
-vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+// Σ w_j v_j (xyz) and Σ w_j (w) over level l of object `ob`, with the read's support: the
+// nodes that weigh in (`support`) and the range of their values' channel means
+// (`v_lo`, `v_hi`; Readout::on_surface's doubt).
+vec4 read_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values, out uint support, out float v_lo,
+               out float v_hi) {
     uint base = ob.level_start[l];
     uint count = ob.level_count[l];
     vec4 acc = vec4(0.0);
+    support = 0u;
+    v_lo = 3.0e38;
+    v_hi = -3.0e38;
     if (count == 0u) {
         return acc;
     }
@@ -88,7 +94,12 @@ vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref v
                 if (dot(dx, dx) < r2) {
                     float w = node_weight(p, n, nd.pos, nd.normal, h, alpha);
                     if (w > 0.0 && on_sheet(g, p - nd.pos, nd.normal, h) && clip_ok(g.clips.v[base + lo], p - nd.pos, nd.normal, h)) {
-                        acc += vec4(values.v[base + lo].xyz * w, w);
+                        vec3 v = values.v[base + lo].xyz;
+                        acc += vec4(v * w, w);
+                        float y = (v.x + v.y + v.z) / 3.0;
+                        support++;
+                        v_lo = min(v_lo, y);
+                        v_hi = max(v_hi, y);
                     }
                 }
                 break;
@@ -107,6 +118,14 @@ vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref v
         }
     }
     return acc;
+}
+
+// Σ w_j v_j (xyz) and Σ w_j (w) over level l of object `ob` (the support unused).
+vec4 shepard_sums(GlobalsRef g, ObjectInfo ob, uint l, vec3 p, vec3 n, Vec4Ref values) {
+    uint support;
+    float v_lo;
+    float v_hi;
+    return read_sums(g, ob, l, p, n, values, support, v_lo, v_hi);
 }
 
 // First kd leaf near p within the support whose normal agrees (n · n_j > cos_min);

@@ -84,7 +84,7 @@ fn frame_dir(out: &Path, k: usize) -> PathBuf {
 
 /// The images, stats.json and (with `points`) probe.csv of a solved frame, into `files`.
 fn frame_outputs(
-    ed: &Editor,
+    ed: &mut Editor,
     f: &Frame,
     k: usize,
     dir: &Path,
@@ -93,8 +93,9 @@ fn frame_outputs(
     progress: &Progress,
 ) -> Result<(output::Outputs, FrameTimes)> {
     let t = Instant::now();
-    let (scene, h, params, sol) = (&ed.scene, &ed.hierarchy, &ed.params, &f.solution);
-    let img = image::render(scene, h, sol, params, progress);
+    let sol = &f.solution;
+    let (engine, scene, h, params) = ed.engine_and_scene();
+    let img = image::render_on(engine, scene, h, sol, params, progress)?;
     super::check_finite(scene, "image", img.direct.iter().chain(&img.indirect).copied())?;
     let mut files = output::Outputs::default();
     let exposure = image::encode_all(dir, &img, exposure, &mut files)?;
@@ -191,7 +192,7 @@ pub fn animate(a: AnimateArgs) -> Result<()> {
         let frame = ed.solve(&hidden)?;
         let dir = frame_dir(&a.out, k);
         output::ensure_dir(&dir)?;
-        let (files, times) = frame_outputs(&ed, &frame, k, &dir, points.as_deref(), exposure, &hidden)?;
+        let (files, times) = frame_outputs(&mut ed, &frame, k, &dir, points.as_deref(), exposure, &hidden)?;
         files.commit()?;
         let total = t.elapsed().as_secs_f64();
         if !a.solver.quiet {
@@ -363,7 +364,15 @@ impl Session {
                 output::check_outputs(&planned, &self.inputs)?;
                 let solved = self.ensure_solved()?;
                 let f = self.last.as_ref().expect("solved");
-                let (files, _) = frame_outputs(&self.ed, f, 0, &dir, None, image::Exposure::default(), &self.progress)?;
+                let (files, _) = frame_outputs(
+                    &mut self.ed,
+                    f,
+                    0,
+                    &dir,
+                    None,
+                    image::Exposure::default(),
+                    &self.progress,
+                )?;
                 let paths: Vec<String> = files.paths().map(|p| p.display().to_string()).collect();
                 files.commit()?;
                 Ok(json!({"ok": true, "solved": solved, "files": paths}))

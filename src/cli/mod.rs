@@ -370,6 +370,13 @@ pub struct ImageSummary {
     /// those that read the basis.
     pub doubted_samples: u64,
     pub basis_samples: u64,
+    /// Where the image was drawn: `"cpu"`, or `"device"` (kernel `image` on the device
+    /// that solved), with the device's times.
+    pub drawn_on: &'static str,
+    /// On the device: the `image` kernel's time (GPU timestamps) and the whole pass's
+    /// (pipeline, uploads, bands and their readbacks).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_seconds: Option<image::DeviceSeconds>,
     /// What left the run dark, when it is (`output::dark`): no node lit, no pixel lit, the
     /// object that encloses the rest.
     pub warnings: Vec<String>,
@@ -387,6 +394,8 @@ impl ImageSummary {
             negative_indirect_pixels_clamped: img.clamped,
             doubted_samples: img.doubted_samples,
             basis_samples: img.basis_samples,
+            drawn_on: if img.device.is_some() { "device" } else { "cpu" },
+            device_seconds: img.device,
             warnings: Vec::new(),
         }
     }
@@ -572,7 +581,8 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
     }
     output::check_outputs(&planned, &scene.report.inputs)?;
     // The engine (and what the solve left on the device) goes before the outputs.
-    let run = crate::solve(&scene, &params, &mut engine(&a.solver, a.solver.quiet)?, &progress)?;
+    let mut eng = engine(&a.solver, a.solver.quiet)?;
+    let run = crate::solve(&scene, &params, &mut eng, &progress)?;
     report_solve(&run.solution, a.solver.quiet);
     let (h, sol, th, ts) = (&run.hierarchy, &run.solution, run.seconds_hierarchy, run.seconds_solve);
     let t = Instant::now();
@@ -586,7 +596,7 @@ fn solve_cmd(a: SolveArgs) -> Result<()> {
             .chain(&sol.values.indirect)
             .map(|v| v.truncate()),
     )?;
-    let img = image::render(&scene, h, sol, &params, &progress);
+    let img = image::render_on(&mut eng, &scene, h, sol, &params, &progress)?;
     check_finite(&scene, "image", img.direct.iter().chain(&img.indirect).copied())?;
     let dark = output::dark::warnings(&scene, h, sol, Some(&img));
     let mut files = output::Outputs::default();

@@ -10,6 +10,7 @@ use glam::Vec4;
 
 use super::arrange::{ArrangeKernels, Arranged};
 use super::globals::{LINK_RECORD_BYTES, RAY_BYTES};
+use super::kernels::image::Image;
 use super::kernels::{Kernels, Recorder};
 use super::resources::{cwbvh_of, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use super::schedule::{Active, Schedule};
@@ -99,6 +100,8 @@ pub struct GpuBackend<'a> {
     solved: bool,
     /// Bounces this solve has ended (`Schedule::linked_levels` reads it).
     bounces_done: u32,
+    /// The `image` kernel, once an image was drawn on this state (`super::image`).
+    image: Option<Image>,
     pub report: GpuReport,
 }
 
@@ -109,8 +112,10 @@ pub struct GpuResident {
     k: Kernels,
     /// The arrangement's kernels (run by [`GpuResident::arrange`], before a solve).
     arrange: ArrangeKernels,
-    prof: Profiler,
-    res: Resources,
+    pub(super) prof: Profiler,
+    pub(super) res: Resources,
+    /// The `image` kernel, built at the first image drawn on this state (`super::image`).
+    pub(super) image: Option<Image>,
     batch: u32,
     /// The link counters when the last solve ended (`None` before the first solve).
     link_base: Option<[u32; LINK_COUNTERS as usize]>,
@@ -163,6 +168,7 @@ impl GpuResident {
             k,
             arrange,
             res,
+            image: None,
             batch,
             link_base: None,
             report,
@@ -260,6 +266,7 @@ impl<'a> GpuBackend<'a> {
             arrange: self.arrange,
             prof: self.prof,
             res: self.res,
+            image: self.image,
             batch: self.batch,
             report,
         }
@@ -298,6 +305,7 @@ impl<'a> GpuBackend<'a> {
             link_base: r.link_base,
             solved: false,
             bounces_done: 0,
+            image: r.image,
             report: r.report,
         })
     }

@@ -9,6 +9,7 @@
 pub mod arrange;
 pub mod backend;
 pub mod globals;
+pub mod image;
 pub mod kernels;
 pub mod poisson;
 pub mod resources;

@@ -7,11 +7,13 @@ use std::path::Path;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::engine::Engine;
 use crate::error::{Error, Result};
 use crate::hierarchy::Hierarchy;
 use crate::output::Outputs;
 use crate::params::SolverParams;
 use crate::progress::Progress;
+use crate::scene::emitter::pixel_seed;
 use crate::scene::{Camera, Scene, Surface};
 use crate::transport::readout::Readout;
 use crate::transport::Solution;
@@ -30,6 +32,19 @@ pub struct Images {
     /// doubted (`doubt_gather`), and those that read the basis.
     pub doubted_samples: u64,
     pub basis_samples: u64,
+    /// The device's times where the image was drawn there ([`render_on`]); `None` on the
+    /// CPU.
+    pub device: Option<DeviceSeconds>,
+}
+
+/// How long an image drawn on the device took.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct DeviceSeconds {
+    /// The `image` kernel (GPU timestamps; 0 where the device has none).
+    pub image_kernel: f64,
+    /// The whole pass: the pipeline (at the first image), uploads, the bands and their
+    /// readbacks.
+    pub image_pass: f64,
 }
 
 impl Images {
@@ -69,9 +84,14 @@ pub fn render_with(
                         Some(hit) => {
                             let s = scene.surface(&hit, ray.d);
                             let kd = s.albedo / std::f32::consts::PI;
-                            // An emitter shows its own radiance (`Scene::emitted`).
-                            ds += kd * scene.direct_from(s.p, s.n, lights) + scene.emitted(&s, hit.b1, hit.b2);
-                            is += kd * indirect(&s, (y * w + x) as u64 * spp as u64 + k as u64);
+                            let sample = (y * w + x) as u64 * spp as u64 + k as u64;
+                            // The emitters' and sky's samples are shifted per image
+                            // sample, as the `image` kernel shifts them. An emitter shows
+                            // its own radiance (`Scene::emitted`).
+                            let seed = pixel_seed(sample, 0);
+                            ds += kd * scene.direct_from_seeded(s.p, s.n, lights, seed)
+                                + scene.emitted(&s, hit.b1, hit.b2);
+                            is += kd * indirect(&s, sample);
                         }
                         // A ray that leaves the scene sees the sky (`[sky]`; black without).
                         None => ds += scene.sky_radiance(ray.d),
@@ -103,6 +123,7 @@ pub fn render_with(
         clamped,
         doubted_samples: 0,
         basis_samples: 0,
+        device: None,
     }
 }
 
@@ -113,9 +134,54 @@ pub fn render_with(
 pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParams, progress: &Progress) -> Images {
     let lights = vec![true; scene.sources()];
     let read = Readout::for_pixels(scene, h, sol, params);
-    let mut img = render_with(scene, &scene.camera, &lights, progress, |s, _| read.on_surface(s));
+    let mut img = render_with(scene, &scene.camera, &lights, progress, |s, sample| {
+        read.on_surface(s, sample)
+    });
     (img.basis_samples, img.doubted_samples) = read.doubt_counts();
     img
+}
+
+/// [`render`] where `engine` solved: on the device that holds the solve's node values
+/// when it is one (kernel `image`: only the pixels cross the bus), else on the CPU. The
+/// two agree to float tolerance (`tests/gpu.rs`).
+pub fn render_on(
+    engine: &mut Engine,
+    scene: &Scene,
+    h: &Hierarchy,
+    sol: &Solution,
+    params: &SolverParams,
+    progress: &Progress,
+) -> Result<Images> {
+    let Some(px) = engine.render_on_device(scene, params, progress) else {
+        return Ok(render(scene, h, sol, params, progress));
+    };
+    let px = px?;
+    let mut indirect = px.indirect;
+    let mut clamped = 0;
+    for v in &mut indirect {
+        if v.min_element() < 0.0 {
+            clamped += 1;
+            *v = v.max(Vec3::ZERO);
+        }
+    }
+    let (basis_samples, doubted_samples) = if px.doubting {
+        (px.hit_samples - px.gathered_samples, px.gathered_samples)
+    } else {
+        (0, 0)
+    };
+    Ok(Images {
+        width: scene.camera.width,
+        height: scene.camera.height,
+        direct: px.direct,
+        indirect,
+        clamped,
+        doubted_samples,
+        basis_samples,
+        device: Some(DeviceSeconds {
+            image_kernel: px.kernel_seconds,
+            image_pass: px.seconds,
+        }),
+    })
 }
 
 /// How bright the PNGs are drawn: `2^ev` times the linear radiance before gamma 2.2. The

@@ -69,6 +69,26 @@ impl Scene {
         e
     }
 
+    /// [`Scene::direct_from`] with the sample sets shifted by `seed` (an image sample's
+    /// [`emitter::pixel_seed`]).
+    pub fn direct_from_seeded(&self, x: Vec3, n: Vec3, which: &[bool], seed: u64) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        self.direct_sources(x, n, self.emitters.samples(), seed, |i, v, _| {
+            if which[i] {
+                e += v
+            }
+        });
+        e
+    }
+
+    /// [`Scene::direct`] with the sample sets shifted by `seed` (a gather ray's hit of an
+    /// image sample: [`emitter::pixel_seed`]).
+    pub fn direct_seeded(&self, x: Vec3, n: Vec3, seed: u64) -> Vec3 {
+        let mut e = Vec3::ZERO;
+        self.direct_sources(x, n, self.emitters.samples(), seed, |_, v, _| e += v);
+        e
+    }
+
     /// Light sources: the lights, then the emitting surfaces as one more if there are any,
     /// then the sky if there is one.
     pub fn sources(&self) -> usize {

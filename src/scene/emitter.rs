@@ -119,6 +119,19 @@ pub fn hit_seed(j: u32, r: u32) -> u64 {
     mix64((j as u64) << 32 | r as u64)
 }
 
+/// The sample sets' shift for the direct light of image sample `sample` (pixel index ×
+/// spp + sample): `r` = 0 at the sample's own hit, `r + 1` at ray `r` of its gather. The
+/// CPU image and the `image` kernel draw the same samples from it; a point's coordinates
+/// ([`point_seed`]) can differ in their last bit between the two.
+pub fn pixel_seed(sample: u64, r: u32) -> u64 {
+    mix64(sample ^ ((r as u64) << 40) ^ 0x9ac5_0000_0000_0000)
+}
+
+/// The rotation key of image sample `sample`'s gather (CPU and the `image` kernel alike).
+pub fn pixel_key(sample: u64) -> u32 {
+    (mix64(sample ^ 0x6b0e_0000_0000_0000) >> 32) as u32
+}
+
 /// A 64-bit mix (splitmix64's finaliser).
 pub fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);

@@ -14,6 +14,7 @@ use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, o
 use crate::geom::Ray;
 use crate::hierarchy::Hierarchy;
 use crate::params::SolverParams;
+use crate::scene::emitter::{pixel_key, pixel_seed};
 use crate::scene::{Scene, Surface};
 use crate::transport::estimator::Estimator;
 use crate::transport::Solution;
@@ -118,11 +119,14 @@ impl<'a> Readout<'a> {
         }
     }
 
-    /// Indirect irradiance at a surface a ray reached (a pixel). The basis read is raw:
-    /// the image clamps and counts negative values.
-    pub fn on_surface(&self, s: &Surface) -> Vec3 {
+    /// Indirect irradiance at a surface a ray of image sample `sample` reached (a pixel's;
+    /// its gathers are rotated and their emitter samples shifted by `sample`, as the
+    /// `image` kernel does). The basis read is raw: the image clamps and counts negative
+    /// values.
+    pub fn on_surface(&self, s: &Surface, sample: u64) -> Vec3 {
+        let key = Some(sample);
         if self.gathers() {
-            self.gather(s.p, s.n).mean
+            self.gather_with(s.p, s.n, &self.halton, key).mean
         } else if let Some(d) = &self.doubt {
             use std::sync::atomic::Ordering::Relaxed;
             let o = s.object as usize;
@@ -150,7 +154,7 @@ impl<'a> Readout<'a> {
             let spread = !d.delta && count > 0 && hi - lo > d.max_spread * mean.max(0.0);
             if count < d.min_nodes || spread {
                 d.gathered.fetch_add(1, Relaxed);
-                self.gather_with(s.p, s.n, &d.halton).mean
+                self.gather_with(s.p, s.n, &d.halton, key).mean
             } else {
                 d.read.fetch_add(1, Relaxed);
                 read
@@ -171,17 +175,22 @@ impl<'a> Readout<'a> {
     /// The final gather at `(x, n)`. Its rotation is hashed from the point's coordinates,
     /// so a point gets the same rays whatever else is evaluated and in whatever order.
     fn gather(&self, x: Vec3, n: Vec3) -> Read {
-        self.gather_with(x, n, &self.halton)
+        self.gather_with(x, n, &self.halton, None)
     }
 
-    /// [`Readout::gather`] over the directions `halton`.
-    fn gather_with(&self, x: Vec3, n: Vec3, halton: &[Vec2]) -> Read {
-        let key = hash2(hash2(x.x.to_bits(), x.y.to_bits()), x.z.to_bits());
+    /// [`Readout::gather`] over the directions `halton`; for an image sample `sample`, its
+    /// rotation and the direct light's samples at its hits come from the sample's index
+    /// (`emitter::pixel_key`, `emitter::pixel_seed`) instead of the point.
+    fn gather_with(&self, x: Vec3, n: Vec3, halton: &[Vec2], sample: Option<u64>) -> Read {
+        let key = match sample {
+            Some(k) => pixel_key(k),
+            None => hash2(hash2(x.x.to_bits(), x.y.to_bits()), x.z.to_bits()),
+        };
         let phi0 = integral_rotation(self.seed ^ 0x0f1a_6a7e, key);
         let (t, b) = onb(n);
         let o = self.scene.offset(x, n);
         let mut est = Estimator::default();
-        for &u in halton {
+        for (r, &u) in halton.iter().enumerate() {
             let d = cosine_direction(n, t, b, u, phi0);
             let Some(hit) = self.scene.intersect(&Ray { o, d }, f32::INFINITY) else {
                 continue;
@@ -190,7 +199,11 @@ impl<'a> Readout<'a> {
             if s.albedo.max_element() <= 0.0 {
                 continue;
             }
-            let e = self.scene.direct(s.p, s.n) + self.basis(&s);
+            let direct = match sample {
+                Some(k) => self.scene.direct_seeded(s.p, s.n, pixel_seed(k, r as u32 + 1)),
+                None => self.scene.direct(s.p, s.n),
+            };
+            let e = direct + self.basis(&s);
             est.add(s.albedo * e);
         }
         let g = est.finish(halton.len());

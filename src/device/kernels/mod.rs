@@ -13,6 +13,7 @@ pub mod direct;
 pub mod energy;
 pub mod gather;
 pub mod hemisphere;
+pub mod image;
 pub mod linked;
 pub mod oracle;
 pub mod poisson;
@@ -135,6 +136,7 @@ pub const NAMES: &[&str] = &[
     direct::Direct::NAME,
     energy::Energy::NAME,
     hemisphere::Hemisphere::NAME,
+    image::Image::NAME,
     linked::Linked::NAME,
     oracle::Oracle::NAME,
     poisson::Poisson::NAME,
