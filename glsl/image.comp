@@ -1,9 +1,14 @@
-// Kernel `image`: the camera's view of a solved scene, one thread per pixel of a band of
-// rows. Each of the pixel's `spp` samples takes its own primary ray over the pixel filter,
-// and at its hit the direct light (every light by a shadow ray, the emitters and the sky
-// sampled with the sample's own shift), the emitted radiance and the indirect light read
-// from the resident node values: the basis, a gather where the basis read is doubted, or a
-// gather everywhere (ALGORITHM.md §6). A ray that leaves the scene sees the sky.
+// Kernel `image`: the camera's view of a solved scene over a range of pixels, in two
+// passes (push constant `pass`). Pass IMAGE_PASS_SAMPLES: one thread per sample of a pixel
+// (`spp` per pixel, over the pixel filter) and per chunk of its gather's rays; each takes
+// its own primary ray, and at its hit the direct light (every light by a shadow ray, the
+// emitters and the sky sampled with the sample's own shift), the emitted radiance and the
+// indirect light read from the resident node values: the basis, a gather where the basis
+// read is doubted, or a gather everywhere (ALGORITHM.md §6); a ray that leaves the scene
+// sees the sky. Pass IMAGE_PASS_PIXELS: one thread per pixel sums its samples' slots.
+// (Why so fine-grained: llvmpipe caps the loop iterations one invocation's nest of loops
+// may run, LP_MAX_TGSI_LOOP_ITERATIONS = 65535 from the outermost loop's entry, and
+// silently ends the loop there; a pixel of 16 samples with gathers ran past it.)
 // CPU twin: output::image::render (render_with, Readout::on_surface, Camera).
 #version 460
 #include "surface.glsl"
@@ -27,17 +32,20 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer ImageInfoRe
     uint gather_rays;
     uint doubt_nodes;
     float doubt_spread;
-    uint pad0;
-    uint pad1;
+    uint chunks;      // chunks a sample's gather is split into (one thread each)
+    uint chunk_rays;  // rays of a chunk (the last may have fewer)
 };
 
 // Push constants: src/device/kernels/image.rs `ImagePush`.
 layout(push_constant) uniform ImagePush {
     GlobalsRef g;
     ImageInfoRef info;
+    Vec4Ref slots;  // per sample and chunk of the band: direct (xyz; w: 1 if it hit), indirect (xyz; w: 1 if it gathered)
     Vec4Ref pixels; // per pixel of the band: direct (xyz; w: samples that hit), indirect (xyz; w: samples gathered)
-    uint first_row;
-    uint rows;
+    uint first_pixel;
+    uint count;     // pixels in the band
+    uint pass;      // IMAGE_PASS_SAMPLES or IMAGE_PASS_PIXELS
+    uint pad0;
 } pc;
 
 layout(local_size_x = LINEAR_GROUP) in;
@@ -173,16 +181,17 @@ vec3 basis_at(GlobalsRef g, uint object, vec3 p_obj, vec3 n_obj, uint level) {
     return recon_exact(g, ob, level, p_obj, n_obj, g.indirect);
 }
 
-// Readout::gather_with for image sample `sid`: `gather_rays` cosine-distributed rays,
-// each hit's ρ (E_d + E_ind) with E_d by shadow rays and E_ind the basis, clamped at zero.
-vec3 gather_at(GlobalsRef g, ImageInfoRef info, vec3 x, vec3 n, uint64_t sid) {
+// Readout::gather_with for image sample `sid`, its rays r0 .. r1 of `gather_rays`
+// cosine-distributed rays: their part of the mean of each hit's ρ (E_d + E_ind), E_d by
+// shadow rays and E_ind the basis clamped at zero.
+vec3 gather_at(GlobalsRef g, ImageInfoRef info, vec3 x, vec3 n, uint64_t sid, uint r0, uint r1) {
     float phi0 = integral_rotation(info.seed ^ 0x0f1a6a7eu, pixel_key(sid));
     vec3 t;
     vec3 b;
     onb(n, t, b);
     vec3 o = offset_origin(x, n, g.scene_scale);
     vec3 sum = vec3(0.0);
-    for (uint r = 0u; r < info.gather_rays; r++) {
+    for (uint r = r0; r < r1; r++) {
         vec3 d = cosine_direction(n, t, b, info.halton.v[r], phi0);
         uint tri;
         vec3 tuv;
@@ -202,16 +211,19 @@ vec3 gather_at(GlobalsRef g, ImageInfoRef info, vec3 x, vec3 n, uint64_t sid) {
     return sum / float(max(info.gather_rays, 1u));
 }
 
-// Readout::on_surface: the indirect irradiance at a sample's hit; `gathered` is set where
-// it was gathered.
-vec3 indirect_at(GlobalsRef g, ImageInfoRef info, Surf s, uint64_t sid, out bool gathered) {
+// Readout::on_surface: chunk `chunk`'s part of the indirect irradiance at a sample's hit
+// (the whole of it in chunk 0 where the basis is read); `gathered` is set where it is
+// gathered.
+vec3 indirect_at(GlobalsRef g, ImageInfoRef info, Surf s, uint64_t sid, uint chunk, out bool gathered) {
     gathered = false;
+    uint r0 = chunk * info.chunk_rays;
+    uint r1 = min(r0 + info.chunk_rays, info.gather_rays);
     if (info.mode == IMAGE_GATHER) {
         gathered = true;
-        return gather_at(g, info, s.p, s.n, sid);
+        return gather_at(g, info, s.p, s.n, sid, r0, r1);
     }
     if (info.mode == IMAGE_BASIS) {
-        return basis_at(g, s.object, s.p_obj, s.n_obj, info.level);
+        return chunk == 0u ? basis_at(g, s.object, s.p_obj, s.n_obj, info.level) : vec3(0.0);
     }
     // The support and (absolute hierarchies) the read itself in one pass.
     uint support;
@@ -224,49 +236,72 @@ vec3 indirect_at(GlobalsRef g, ImageInfoRef info, Surf s, uint64_t sid, out bool
     bool spread = !delta && support > 0u && v_hi - v_lo > info.doubt_spread * max(mean, 0.0);
     if (support < info.doubt_nodes || spread) {
         gathered = true;
-        return gather_at(g, info, s.p, s.n, sid);
+        return gather_at(g, info, s.p, s.n, sid, r0, r1);
     }
-    return read;
+    return chunk == 0u ? read : vec3(0.0);
+}
+
+// Pass IMAGE_PASS_PIXELS: the pixel's mean over its samples' slots.
+void sum_pixel(uint id) {
+    ImageInfoRef info = pc.info;
+    uint per = max(info.spp, 1u) * info.chunks;
+    vec4 d = vec4(0.0);
+    vec4 i = vec4(0.0);
+    for (uint j = 0u; j < per; j++) {
+        d += pc.slots.v[2u * (id * per + j)];
+        i += pc.slots.v[2u * (id * per + j) + 1u];
+    }
+    float inv = 1.0 / float(max(info.spp, 1u));
+    pc.pixels.v[2u * id] = vec4(d.xyz * inv, d.w);
+    pc.pixels.v[2u * id + 1u] = vec4(i.xyz * inv, i.w);
 }
 
 void main() {
     uint id = linear_id();
     ImageInfoRef info = pc.info;
-    uint w = info.width;
-    if (id >= pc.rows * w) {
+    uint spp = max(info.spp, 1u);
+    if (pc.pass == IMAGE_PASS_PIXELS) {
+        if (id < pc.count) {
+            sum_pixel(id);
+        }
+        return;
+    }
+    if (id >= pc.count * spp * info.chunks) {
         return;
     }
     GlobalsRef g = pc.g;
-    uint x = id % w;
-    uint y = pc.first_row + id / w;
-    uint spp = max(info.spp, 1u);
-    vec3 ds = vec3(0.0);
-    vec3 is = vec3(0.0);
-    uint hits = 0u;
-    uint gathers = 0u;
-    for (uint k = 0u; k < spp; k++) {
-        vec3 d = camera_direction(info, sample_position(info, x, y, k));
-        uint tri;
-        vec3 tuv;
-        uint object = trace_scene(g, info.position.xyz, d, FAR, tri, tuv);
-        if (object == NONE) {
-            ds += sky_radiance(g, d);
-            continue;
+    uint chunk = id % info.chunks;
+    uint k = (id / info.chunks) % spp;
+    uint pixel = pc.first_pixel + id / (info.chunks * spp);
+    uint w = info.width;
+    uint x = pixel % w;
+    uint y = pixel / w;
+    vec3 d = camera_direction(info, sample_position(info, x, y, k));
+    uint tri;
+    vec3 tuv;
+    uint object = trace_scene(g, info.position.xyz, d, FAR, tri, tuv);
+    vec4 direct = vec4(0.0);
+    vec4 indirect = vec4(0.0);
+    if (object == NONE) {
+        if (chunk == 0u) {
+            direct.xyz = sky_radiance(g, d);
         }
-        hits++;
+    } else {
         Surf s = surface_at(g, info, object, tri, tuv, d);
         vec3 kd = s.a / PI;
-        uint64_t sid = uint64_t(y * w + x) * uint64_t(spp) + uint64_t(k);
-        vec3 se;
-        ds += kd * direct_at(g, s.p, s.n, false, pixel_seed(sid, 0u), g.emitter_samples, se);
-        if (!s.back) {
-            ds += emitted_at(g, tri, tuv.yz);
+        uint64_t sid = uint64_t(pixel) * uint64_t(spp) + uint64_t(k);
+        if (chunk == 0u) {
+            vec3 se;
+            direct.xyz = kd * direct_at(g, s.p, s.n, false, pixel_seed(sid, 0u), g.emitter_samples, se);
+            if (!s.back) {
+                direct.xyz += emitted_at(g, tri, tuv.yz);
+            }
+            direct.w = 1.0;
         }
         bool gathered;
-        is += kd * indirect_at(g, info, s, sid, gathered);
-        gathers += gathered ? 1u : 0u;
+        indirect.xyz = kd * indirect_at(g, info, s, sid, chunk, gathered);
+        indirect.w = gathered && chunk == 0u ? 1.0 : 0.0;
     }
-    float inv = 1.0 / float(spp);
-    pc.pixels.v[2u * id] = vec4(ds * inv, float(hits));
-    pc.pixels.v[2u * id + 1u] = vec4(is * inv, float(gathers));
+    pc.slots.v[2u * id] = direct;
+    pc.slots.v[2u * id + 1u] = indirect;
 }

@@ -115,6 +115,16 @@ pub const FILTER_GAUSSIAN: u32 = 1;
 pub const IMAGE_BASIS: u32 = 0;
 pub const IMAGE_DOUBT: u32 = 1;
 pub const IMAGE_GATHER: u32 = 2;
-/// Most pixels of one `image` dispatch (a band of rows), so that no submission runs long
-/// and the band's buffer stays small (2^18 pixels: 8 MiB).
-pub const IMAGE_BAND_PIXELS: u32 = 262144;
+/// The `image` kernel's passes (`ImagePush::pass`): one thread per sample and chunk of
+/// its gather, then one per pixel summing them.
+pub const IMAGE_PASS_SAMPLES: u32 = 0;
+pub const IMAGE_PASS_PIXELS: u32 = 1;
+/// Most gather rays one `image` thread traces (a sample's gather is split into chunks of
+/// at most this many, one thread each): llvmpipe ends a loop nest silently past 65535
+/// iterations, and a ray in a large scene takes hundreds (BVH, shadow ray, kd-tree).
+pub const IMAGE_CHUNK_RAYS: u32 = 32;
+/// Most sample slots of one `image` band (2^20: 32 MiB), so that no submission runs long
+/// and the band's buffer stays small.
+pub const IMAGE_BAND_SLOTS: u32 = 1048576;
+/// Most slots one pixel sums (samples × chunks), within llvmpipe's loop limit.
+pub const IMAGE_PIXEL_SLOTS: u32 = 60000;

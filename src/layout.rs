@@ -198,6 +198,7 @@ pub struct ImageInfo {
     pub gather_rays: u32,
     pub doubt_nodes: u32,
     pub doubt_spread: f32,
-    pub pad0: u32,
-    pub pad1: u32,
+    /// Chunks a sample's gather is split into (one thread each), and their rays.
+    pub chunks: u32,
+    pub chunk_rays: u32,
 }

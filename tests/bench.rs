@@ -91,8 +91,10 @@ fn accuracy_quick() {
         .replace(
             "coarsest = 226",
             "coarsest = 100\nlevels = 4\nsender_level = 3\nbounces = 2",
-        );
-    assert!(text.contains("levels = 4"));
+        )
+        .replace("width = 256", "width = 96")
+        .replace("height = 256", "height = 96");
+    assert!(text.contains("levels = 4") && text.contains("width = 96"));
     std::fs::write(dir.path().join("cornell.toml"), text).unwrap();
     let o = meshrad(
         &[
@@ -108,6 +110,12 @@ fn accuracy_quick() {
             "2000",
             "--pathtrace",
             "16,64",
+            "--image-reference",
+            "64",
+            "--image-spp",
+            "1,16",
+            "--image-pathtrace",
+            "4,16",
             "--out",
             "a",
             "-q",
@@ -154,6 +162,35 @@ fn accuracy_quick() {
     assert!(lines.iter().any(|l| l.ends_with(",true")), "a Pareto front");
     let png = image::open(dir.path().join("a/cornell.png")).unwrap();
     assert!(png.width() > 500);
+    // Issue #33: the image front, against two reference images (their noise taken out):
+    // meshrad at 1 and 16 samples a pixel on each backend (the device draws its own), path
+    // tracing at 4 and 16 paths; more samples take the edges' aliasing out.
+    assert!(text.contains("path tracing at equal error"), "{text}");
+    let front = std::fs::read_to_string(dir.path().join("a/image-front.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = front.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 2 * 2 + 2, "{front}");
+    let head: Vec<&str> = front.lines().next().unwrap().split(',').collect();
+    let at = |r: &[&str], c: &str| -> f64 { r[head.iter().position(|h| *h == c).unwrap()].parse().unwrap() };
+    for r in &rows {
+        let (all, smooth, energy) = (at(r, "total_all"), at(r, "total_smooth"), at(r, "total_energy"));
+        assert!(
+            all > 0.0 && all < 1.0 && smooth <= all + 0.02 && (0.7..1.3).contains(&energy),
+            "{r:?}"
+        );
+    }
+    assert!(rows.iter().any(|r| r[2].starts_with("gpu")), "{front}");
+    for backend in ["cpu", "gpu"] {
+        let m: Vec<&Vec<&str>> = rows
+            .iter()
+            .filter(|r| r[1] == "meshrad" && r[2].starts_with(backend))
+            .collect();
+        assert!(at(m[1], "total_all") < at(m[0], "total_all"), "{front}");
+    }
+    assert!(image::open(dir.path().join("a/image-front.png")).unwrap().width() > 500);
+    assert!(dir
+        .path()
+        .join("a/cornell-image-reference-96x96-64-seed2/total.exr")
+        .is_file());
     // The cached reference is reused on a second run.
     let cached = std::fs::read_to_string(dir.path().join("a/cornell-area-converged-reference.csv")).unwrap();
     assert!(cached.starts_with("# meshrad reference samples=2000 max_bounces=0"));
@@ -179,6 +216,8 @@ fn accuracy_quick() {
             "-q",
             "--only",
             "approx rays=33",
+            "--image-reference",
+            "0",
         ],
         b"",
     );

@@ -282,6 +282,33 @@ fn probe_prints_the_csv() {
     );
     ok(&o);
     assert!(String::from_utf8_lossy(&o.stdout).starts_with("px,py,pz"));
+    // Issue #33: `--read image` reads the points as the image does. Without doubt it is
+    // the basis read, the same as `--set final_gather=0`, bit for bit; with doubt (the
+    // default) it gathers where the basis is doubted and reads it elsewhere.
+    let solver = ["--rays", "64", "--set", "levels=4", "--set", "sender_level=3", "-q"];
+    let read = |extra: &[&str]| -> Vec<Vec<f64>> {
+        let mut a = vec!["probe", scene.to_str().unwrap(), "--points", pts.to_str().unwrap()];
+        a.extend(solver);
+        a.extend(extra);
+        let o = meshrad(&a, dir.path());
+        ok(&o);
+        String::from_utf8_lossy(&o.stdout)
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+            .collect()
+    };
+    let basis = read(&["--set", "final_gather=0"]);
+    assert_eq!(read(&["--read", "image", "--set", "doubt_gather=0"]), basis);
+    let image = read(&["--read", "image"]);
+    for (a, b) in image.iter().zip(&rows) {
+        for c in 9..12 {
+            assert!(
+                a[c] > 0.0 && (a[c] - b[c]).abs() < 0.25 * b[c],
+                "{a:?} against the probe {b:?}"
+            );
+        }
+    }
 }
 
 #[test]

@@ -789,6 +789,12 @@ fn images_drawn_on_the_device_equal_the_cpu_images() {
         }
         cases.push((format!("Cornell box, {variant:?}"), s, p));
     }
+    // Much work a pixel: 16 samples, each gathering 64 rays (two chunks of 32 threads'
+    // worth). One thread a pixel ran past llvmpipe's loop limit here and lost samples.
+    let (mut s, mut p) = cornell(4, 64, Variant::Modified);
+    (s.camera.width, s.camera.height, s.camera.spp) = (16, 12, 16);
+    (p.bounces, p.doubt_nodes, p.doubt_gather) = (2, 1024, 64);
+    cases.push(("Cornell box, every sample gathers 64 rays".into(), s, p));
     let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 64\nbounces = 2\n";
     let (mut s, mut p) = Scene::embedded_file("cornell_area.toml", &[]).unwrap();
     small(&mut s, 2);
@@ -850,6 +856,10 @@ fn images_drawn_on_the_device_equal_the_cpu_images() {
         assert!(d <= 0.005 && i <= 0.005 && t <= 0.005, "{name}");
         if name.ends_with("Modified") {
             assert!(cpu.doubted_samples > 0, "{name}: no sample was doubted");
+        }
+        if name.ends_with("64 rays") {
+            let hits = cpu.doubted_samples + cpu.basis_samples;
+            assert!(hits > 2000 && cpu.doubted_samples == hits, "{name}: {hits} hits");
         }
         assert_eq!(
             gpu.doubted_samples + gpu.basis_samples,

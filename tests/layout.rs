@@ -244,14 +244,24 @@ fn gpu_struct_offsets_match_the_host_structs() {
         gather_rays,
         doubt_nodes,
         doubt_spread,
-        pad0,
-        pad1
+        chunks,
+        chunk_rays
     );
     assert_eq!(std::mem::size_of::<ImageInfo>(), 128);
     // Each kernel's push constants (one block per kernel; the four kernels of a gathering
     // batch share GatherPush).
     check("ImagePush", "g", offset_of!(ImagePush, globals));
-    same!(ImagePush, "ImagePush", info, pixels, first_row, rows);
+    same!(
+        ImagePush,
+        "ImagePush",
+        info,
+        slots,
+        pixels,
+        first_pixel,
+        count,
+        pass,
+        pad0
+    );
     check("DirectPush", "g", offset_of!(DirectPush, globals));
     same!(DirectPush, "DirectPush", first, count);
     check("AccumulatePush", "g", offset_of!(AccumulatePush, globals));

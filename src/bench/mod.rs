@@ -5,6 +5,7 @@
 
 pub mod accuracy;
 pub mod edit_vs_fresh;
+pub mod images;
 pub mod plot;
 pub mod table2;
 

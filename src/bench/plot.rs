@@ -121,3 +121,68 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
     root.present().map_err(|e| err(Box::new(e)))?;
     Ok(())
 }
+
+/// Named series of (seconds, error %) as points joined by lines, both axes logarithmic
+/// (the image front: `bench::images`), into `path`.
+pub fn lines(title: &str, series: &[(String, Vec<(f64, f64)>)], path: &Path) -> Result<()> {
+    register_font();
+    let err = |e: Box<dyn std::error::Error>| Error::Output {
+        path: path.into(),
+        message: e.to_string(),
+    };
+    let all: Vec<(f64, f64)> = series
+        .iter()
+        .flat_map(|(_, p)| p.iter().copied())
+        .filter(|&(t, e)| t > 0.0 && e > 0.0)
+        .collect();
+    if all.is_empty() {
+        return Err(Error::Output {
+            path: path.into(),
+            message: "nothing to plot".into(),
+        });
+    }
+    let (mut t0, mut t1, mut e0, mut e1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+    for &(t, e) in &all {
+        (t0, t1, e0, e1) = (t0.min(t), t1.max(t), e0.min(e), e1.max(e));
+    }
+    let root = BitMapBackend::new(path, (1100, 750)).into_drawing_area();
+    root.fill(&WHITE).map_err(|e| err(Box::new(e)))?;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 24))
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(70)
+        .build_cartesian_2d((t0 / 1.5..t1 * 1.5).log_scale(), (e0 / 1.5..e1 * 1.5).log_scale())
+        .map_err(|e| err(Box::new(e)))?;
+    chart
+        .configure_mesh()
+        .x_desc("end-to-end time (s, log)")
+        .y_desc("rel-RMS of the total image, all pixels (%, log)")
+        .x_label_formatter(&|v| format!("{v:.2}"))
+        .y_label_formatter(&|v| format!("{v:.1} %"))
+        .label_style(("sans-serif", 15))
+        .draw()
+        .map_err(|e| err(Box::new(e)))?;
+    for (i, (name, pts)) in series.iter().enumerate() {
+        let color = COLORS[i % COLORS.len()];
+        let mut pts: Vec<(f64, f64)> = pts.iter().copied().filter(|&(t, e)| t > 0.0 && e > 0.0).collect();
+        pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+        chart
+            .draw_series(LineSeries::new(pts.clone(), color.stroke_width(2)))
+            .map_err(|e| err(Box::new(e)))?;
+        chart
+            .draw_series(pts.iter().map(|&(t, e)| Circle::new((t, e), 5, color.filled())))
+            .map_err(|e| err(Box::new(e)))?
+            .label(name.clone())
+            .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .label_font(("sans-serif", 15))
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .draw()
+        .map_err(|e| err(Box::new(e)))?;
+    root.present().map_err(|e| err(Box::new(e)))?;
+    Ok(())
+}

@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use anyhow::{Context as _, Result};
 use clap::{Args, Subcommand};
 
-use crate::bench::{accuracy, plot, table2};
+use crate::bench::{accuracy, images, plot, table2};
 use crate::engine::Engine;
 use crate::gpu::{Context, ContextOptions};
 use crate::output;
@@ -146,6 +146,23 @@ pub struct AccuracyArgs {
     /// "defaults,final gather 256").
     #[arg(long, value_delimiter = ',')]
     only: Vec<String>,
+    /// The image front: paths per pixel of each of two independent reference images of
+    /// the scene's camera (cached in --out); 0: no image front. The total and indirect
+    /// images' error over all pixels and away from edges against end-to-end time, for
+    /// meshrad at --image-spp on each backend and path tracing at --image-pathtrace
+    /// (`image-front.csv`, `.md`, `.png`).
+    #[arg(long, default_value_t = 1024)]
+    image_reference: u32,
+    /// meshrad's samples per pixel on the image front (comma-separated).
+    #[arg(long, value_delimiter = ',', default_value = "1,4,16,64")]
+    image_spp: Vec<u32>,
+    /// Path tracing's paths per pixel on the image front (comma-separated; the project's
+    /// reference renderer on this machine's cores).
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64,256,1024")]
+    image_pathtrace: Vec<u32>,
+    /// Only the image front (no probe points).
+    #[arg(long)]
+    images_only: bool,
     #[arg(long, short)]
     quiet: bool,
 }
@@ -277,14 +294,43 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
             })
             .collect::<Result<_>>()?
     };
+    if a.images_only && a.image_reference == 0 {
+        anyhow::bail!("--images-only needs an image front: --image-reference above 0");
+    }
+    for (key, list) in [("--image-spp", &a.image_spp), ("--image-pathtrace", &a.image_pathtrace)] {
+        if let Some(bad) = list.iter().find(|&&n| n == 0 || n > crate::scene::camera::MAX_SPP) {
+            anyhow::bail!("{key}: {bad} is outside 1..={}", crate::scene::camera::MAX_SPP);
+        }
+    }
     let mut all = Vec::new();
+    let mut fronts = Vec::new();
     for (name, (scene, params)) in scenes {
-        let rows = accuracy::sweep(&name, &scene, &params, &backends, &opts, &a.out, &progress)?;
-        let png = a.out.join(format!("{name}.png"));
-        plot::error_vs_time(&rows, &format!("{name}: error against time"), &png)?;
-        all.extend(rows);
+        if !a.images_only {
+            let rows = accuracy::sweep(&name, &scene, &params, &backends, &opts, &a.out, &progress)?;
+            let png = a.out.join(format!("{name}.png"));
+            plot::error_vs_time(&rows, &format!("{name}: error against time"), &png)?;
+            all.extend(rows);
+        }
+        if a.image_reference > 0 {
+            let io = images::ImageOptions {
+                reference_samples: a.image_reference,
+                spp: a.image_spp.clone(),
+                pathtrace: a.image_pathtrace.clone(),
+            };
+            fronts.extend(images::front(
+                &name, &scene, &params, &backends, &io, &a.out, &progress,
+            )?);
+        }
     }
     progress.finish();
+    if !fronts.is_empty() {
+        images::write(&fronts, &a.out)?;
+        println!("{}", images::summary(&fronts));
+        println!("wrote image-front.csv, .md and .png in {}", a.out.display());
+    }
+    if a.images_only {
+        return Ok(());
+    }
     let csv_path = a.out.join("accuracy.csv");
     std::fs::write(&csv_path, accuracy::csv(&all)).with_context(|| format!("writing {}", csv_path.display()))?;
     println!("{}", summary(&all));

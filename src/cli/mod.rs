@@ -158,8 +158,20 @@ struct ProbeArgs {
     /// Write the CSV here instead of stdout.
     #[arg(long, value_name = "FILE.csv")]
     out: Option<PathBuf>,
+    /// How the indirect light is read: `probe` (a final gather of `final_gather` rays, or
+    /// the basis with `final_gather = 0`), or `image`: as the camera image reads a pixel
+    /// there (the basis, and a gather of `doubt_gather` × spp rays where it is doubted).
+    #[arg(long, value_enum, default_value = "probe")]
+    read: ProbeRead,
     #[command(flatten)]
     solver: SolverArgs,
+}
+
+/// `probe --read`.
+#[derive(Clone, Copy, Debug, clap::ValueEnum)]
+enum ProbeRead {
+    Probe,
+    Image,
 }
 
 /// Entry point of the binary.
@@ -661,7 +673,10 @@ fn probe_cmd(a: ProbeArgs) -> Result<()> {
     for w in output::dark::warnings(&scene, &run.hierarchy, &run.solution, None) {
         eprintln!("warning: {w}");
     }
-    let values = probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params);
+    let values = match a.read {
+        ProbeRead::Probe => probe::evaluate(&scene, &run.hierarchy, &run.solution, &probes, &params),
+        ProbeRead::Image => probe::evaluate_as_image(&scene, &run.hierarchy, &run.solution, &probes, &params),
+    };
     check_finite(
         &scene,
         "probe values",

@@ -100,7 +100,7 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         let planned: Vec<(&str, PathBuf)> = image::file_names(&dir).into_iter().map(|p| ("an image", p)).collect();
         output::check_outputs(&planned, &scene.report.inputs)?;
         progress.stage(&format!("camera, {} paths per pixel", opts.samples));
-        let img = render(&scene, &opts, &progress);
+        let img = image::reference_image(&scene, &opts, &progress);
         image::write_all(&dir, &img, image::Exposure::default())?;
         progress.finish();
         if !a.quiet {
@@ -114,28 +114,4 @@ pub fn run(a: ReferenceArgs) -> Result<()> {
         anyhow::bail!("give --points FILE or --camera");
     }
     Ok(())
-}
-
-/// Reference images: exact direct light and path-traced indirect irradiance, over the
-/// camera's pixel filter. The `opts.samples` paths of a pixel are spread over
-/// `positions(opts.samples)` sub-pixel positions (stratified as the solver's samples), so
-/// the edges converge with the paths.
-fn render(scene: &Scene, opts: &ReferenceOptions, progress: &Progress) -> image::Images {
-    let all = vec![true; scene.sources()];
-    let mut cam = scene.camera.clone();
-    let spp = positions(opts.samples);
-    cam.spp = spp;
-    let per = ReferenceOptions {
-        samples: opts.samples.div_ceil(spp),
-        ..*opts
-    };
-    image::render_with(scene, &cam, &all, progress, |s, sample| {
-        reference::indirect(scene, s.p, s.n, &per, sample).mean.as_vec3()
-    })
-}
-
-/// Sub-pixel positions of a reference pixel of `samples` paths: one per path up to 256
-/// (stratified edges then converge faster than the paths' noise).
-fn positions(samples: u32) -> u32 {
-    samples.clamp(1, 256)
 }

@@ -12,7 +12,10 @@ use super::backend::specialization;
 use super::kernels::image::Image;
 use super::kernels::submit;
 use super::GpuResident;
-use crate::constants::{FILTER_BOX, FILTER_GAUSSIAN, IMAGE_BAND_PIXELS, IMAGE_BASIS, IMAGE_DOUBT, IMAGE_GATHER};
+use crate::constants::{
+    FILTER_BOX, FILTER_GAUSSIAN, IMAGE_BAND_SLOTS, IMAGE_BASIS, IMAGE_CHUNK_RAYS, IMAGE_DOUBT, IMAGE_GATHER,
+    IMAGE_PIXEL_SLOTS,
+};
 use crate::error::{Error, Result};
 use crate::geom::sampling::halton_table;
 use crate::gpu::buffer::Buffer;
@@ -73,6 +76,13 @@ impl GpuResident {
             flat.resize(scene.tris.len() * 9, 0.0);
             Some(Buffer::upload(ctx, "corner normals", &flat)?)
         };
+        // A sample's gather in chunks of at most IMAGE_CHUNK_RAYS rays, one thread each, and
+        // at most IMAGE_PIXEL_SLOTS slots a pixel (larger chunks beyond that).
+        let spp = cam.spp.max(1);
+        let max_chunks = (IMAGE_PIXEL_SLOTS / spp).max(1);
+        let chunks = rays.div_ceil(IMAGE_CHUNK_RAYS).clamp(1, max_chunks);
+        let chunk_rays = rays.div_ceil(chunks);
+        let per_pixel = spp * chunks;
         let v4 = |v: Vec3, w: f32| [v.x, v.y, v.z, w];
         let info = ImageInfo {
             position: v4(cam.position, cam.tan_half),
@@ -94,38 +104,52 @@ impl GpuResident {
             gather_rays: rays,
             doubt_nodes: p.doubt_nodes,
             doubt_spread: p.doubt_spread,
-            ..Default::default()
+            chunks,
+            chunk_rays,
         };
         let info_buf = Buffer::upload(ctx, "image info", std::slice::from_ref(&info))?;
-        let band_rows = (IMAGE_BAND_PIXELS / w).clamp(1, h);
+        let n = w as usize * h as usize;
+        let band_pixels = (IMAGE_BAND_SLOTS / per_pixel).clamp(1, n as u32);
+        let slots = Buffer::new(
+            ctx,
+            "image sample slots",
+            band_pixels as u64 * per_pixel as u64 * 32,
+            gpu_allocator::MemoryLocation::GpuOnly,
+        )?;
         let band = Buffer::new(
             ctx,
             "image band",
-            band_rows as u64 * w as u64 * 32,
+            band_pixels as u64 * 32,
             gpu_allocator::MemoryLocation::GpuOnly,
         )?;
-        let n = w as usize * h as usize;
         let (mut direct, mut indirect) = (Vec::with_capacity(n), Vec::with_capacity(n));
         let (mut hits, mut gathered) = (0u64, 0u64);
         let before = self.prof.totals.get(Image::NAME).map_or(0.0, |t| t.0);
-        let bar = progress.bar(h as u64, "image (device)");
+        let bar = progress.bar(n as u64, "image (device)");
         let kernel = self.image.as_ref().expect("built above");
         let globals = self.res.globals.address;
-        let mut y = 0;
-        while y < h {
-            let rows = band_rows.min(h - y);
+        let mut first = 0u32;
+        while (first as usize) < n {
+            let count = band_pixels.min(n as u32 - first);
             submit(ctx, &mut self.prof, globals, |rec| {
-                kernel.record(rec, info_buf.address, band.address, y..y + rows, w);
+                kernel.record(
+                    rec,
+                    info_buf.address,
+                    slots.address,
+                    band.address,
+                    first..first + count,
+                    per_pixel,
+                );
             })?;
-            let px: Vec<Vec4> = band.download(0, 2 * (rows * w) as usize)?;
+            let px: Vec<Vec4> = band.download(0, 2 * count as usize)?;
             for pair in px.chunks_exact(2) {
                 direct.push(pair[0].truncate());
                 indirect.push(pair[1].truncate());
                 hits += pair[0].w as u64;
                 gathered += pair[1].w as u64;
             }
-            bar.inc(rows as u64);
-            y += rows;
+            bar.inc(count as u64);
+            first += count;
         }
         bar.finish();
         let errors = ctx.validation_errors();

@@ -13,6 +13,7 @@ use crate::hierarchy::Hierarchy;
 use crate::output::Outputs;
 use crate::params::SolverParams;
 use crate::progress::Progress;
+use crate::reference::{self, ReferenceOptions};
 use crate::scene::emitter::pixel_seed;
 use crate::scene::{Camera, Scene, Surface};
 use crate::transport::readout::Readout;
@@ -139,6 +140,25 @@ pub fn render(scene: &Scene, h: &Hierarchy, sol: &Solution, params: &SolverParam
     });
     (img.basis_samples, img.doubted_samples) = read.doubt_counts();
     img
+}
+
+/// Reference images (`meshrad reference --camera`, `bench accuracy`'s image front): exact
+/// direct light and path-traced indirect irradiance (`opts`: paths per pixel, bounces,
+/// seed), over the camera's pixel filter. The `opts.samples` paths of a pixel are spread
+/// over up to 256 sub-pixel positions (stratified as the solver's samples), so the edges
+/// converge with the paths.
+pub fn reference_image(scene: &Scene, opts: &ReferenceOptions, progress: &Progress) -> Images {
+    let all = vec![true; scene.sources()];
+    let mut cam = scene.camera.clone();
+    let spp = opts.samples.clamp(1, 256);
+    cam.spp = spp;
+    let per = ReferenceOptions {
+        samples: opts.samples.div_ceil(spp),
+        ..*opts
+    };
+    render_with(scene, &cam, &all, progress, |s, sample| {
+        reference::indirect(scene, s.p, s.n, &per, sample).mean.as_vec3()
+    })
 }
 
 /// [`render`] where `engine` solved: on the device that holds the solve's node values

@@ -145,6 +145,33 @@ pub fn evaluate(
         .collect()
 }
 
+/// [`evaluate`] with the indirect light read as the image reads it
+/// ([`Readout::image_at`]: the basis, and where it is doubted a gather of a pixel's worth of
+/// rays), for `probe --read image`: what the image pipeline computes at the points.
+pub fn evaluate_as_image(
+    scene: &Scene,
+    h: &Hierarchy,
+    sol: &Solution,
+    probes: &[Probe],
+    params: &SolverParams,
+) -> Vec<ProbeValue> {
+    let read = Readout::for_image_points(scene, h, sol, params);
+    probes
+        .par_iter()
+        .map(|q| {
+            let (direct, direct_se) = scene.direct_with_error(q.p, q.n);
+            ProbeValue {
+                direct,
+                direct_se,
+                indirect: Read {
+                    mean: read.image_at(q.p, q.n),
+                    std_err: Vec3::ZERO,
+                },
+            }
+        })
+        .collect()
+}
+
 /// The reference CSV header: the probe columns plus the standard errors of the indirect
 /// (and total: direct is exact) irradiance.
 pub const REFERENCE_HEADER: &str = "px,py,pz,nx,ny,nz,direct_r,direct_g,direct_b,indirect_r,indirect_g,indirect_b,\

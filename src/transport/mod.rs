@@ -329,6 +329,16 @@ impl Solution {
     /// Indirect irradiance at a world-space point `(x, n)` near some surface: the object
     /// with the most basis weight there on the finest level that covers it answers.
     pub fn indirect_at(&self, scene: &Scene, h: &Hierarchy, x: Vec3, n: Vec3, level: u32) -> Vec3 {
+        match self.locate(scene, h, x, n, level) {
+            Some((o, p, nn)) => self.indirect_on(h, o, p, nn, level),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// The object that answers at a world-space point `(x, n)` near some surface (the one
+    /// with the most basis weight there on the finest level ≤ `level` that covers it), and
+    /// the point and normal in its space; `None` where no level of any object covers it.
+    pub fn locate(&self, scene: &Scene, h: &Hierarchy, x: Vec3, n: Vec3, level: u32) -> Option<(usize, Vec3, Vec3)> {
         let local: Vec<(Vec3, Vec3)> = scene
             .objects
             .iter()
@@ -346,9 +356,9 @@ impl Solution {
                 .max_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((o, _)) = best {
                 let (p, nn) = local[o];
-                return self.indirect_on(h, o, p, nn, level);
+                return Some((o, p, nn));
             }
         }
-        Vec3::ZERO
+        None
     }
 }

@@ -129,40 +129,81 @@ impl<'a> Readout<'a> {
             self.gather_with(s.p, s.n, &self.halton, key).mean
         } else if let Some(d) = &self.doubt {
             use std::sync::atomic::Ordering::Relaxed;
-            let o = s.object as usize;
-            let l = self.level as usize;
-            let (mut count, mut lo, mut hi) = (0u32, f32::INFINITY, f32::NEG_INFINITY);
-            let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
-            let values = &self.sol.values.indirect;
-            // The support and (absolute hierarchies) the read itself in one pass: the
-            // Shepard sums of `reconstruct::shepard_sums`, in its order.
-            self.h.for_each_read_weight(o, l, s.p_obj, s.n_obj, |j, w| {
-                count += 1;
-                let v = values[j];
-                sum += v.truncate() * w;
-                wsum += w;
-                let y = (v.x + v.y + v.z) / 3.0;
-                lo = lo.min(y);
-                hi = hi.max(y);
-            });
-            let read = if !d.delta && wsum > 0.0 {
-                sum / wsum
-            } else {
-                self.sol.indirect_on(self.h, o, s.p_obj, s.n_obj, self.level)
-            };
-            let mean = (read.x + read.y + read.z) / 3.0;
-            let spread = !d.delta && count > 0 && hi - lo > d.max_spread * mean.max(0.0);
-            if count < d.min_nodes || spread {
-                d.gathered.fetch_add(1, Relaxed);
-                self.gather_with(s.p, s.n, &d.halton, key).mean
-            } else {
-                d.read.fetch_add(1, Relaxed);
-                read
+            match self.trusted_read(d, s.object as usize, s.p_obj, s.n_obj) {
+                Some(read) => {
+                    d.read.fetch_add(1, Relaxed);
+                    read
+                }
+                None => {
+                    d.gathered.fetch_add(1, Relaxed);
+                    self.gather_with(s.p, s.n, &d.halton, key).mean
+                }
             }
         } else {
             self.sol
                 .indirect_on(self.h, s.object as usize, s.p_obj, s.n_obj, self.level)
         }
+    }
+
+    /// The basis read on object `o` at `(p_obj, n_obj)` where it is trusted; `None` where
+    /// it is doubted: fewer than `min_nodes` nodes support it, or (absolute hierarchies)
+    /// their values spread by more than `max_spread` of the read.
+    fn trusted_read(&self, d: &Doubt, o: usize, p_obj: Vec3, n_obj: Vec3) -> Option<Vec3> {
+        let l = self.level as usize;
+        let (mut count, mut lo, mut hi) = (0u32, f32::INFINITY, f32::NEG_INFINITY);
+        let (mut sum, mut wsum) = (Vec3::ZERO, 0.0f32);
+        let values = &self.sol.values.indirect;
+        // The support and (absolute hierarchies) the read itself in one pass: the
+        // Shepard sums of `reconstruct::shepard_sums`, in its order.
+        self.h.for_each_read_weight(o, l, p_obj, n_obj, |j, w| {
+            count += 1;
+            let v = values[j];
+            sum += v.truncate() * w;
+            wsum += w;
+            let y = (v.x + v.y + v.z) / 3.0;
+            lo = lo.min(y);
+            hi = hi.max(y);
+        });
+        let read = if !d.delta && wsum > 0.0 {
+            sum / wsum
+        } else {
+            self.sol.indirect_on(self.h, o, p_obj, n_obj, self.level)
+        };
+        let mean = (read.x + read.y + read.z) / 3.0;
+        let spread = !d.delta && count > 0 && hi - lo > d.max_spread * mean.max(0.0);
+        (count >= d.min_nodes && !spread).then_some(read)
+    }
+
+    /// For reading world-space points as the image reads its pixels (`probe --read
+    /// image`): [`Readout::for_pixels`] with each gather as many rays as a pixel's `spp`
+    /// samples take in all (`final_gather_pixels` or `doubt_gather`, × `spp`).
+    pub fn for_image_points(scene: &'a Scene, h: &'a Hierarchy, sol: &'a Solution, p: &SolverParams) -> Self {
+        let spp = scene.camera.spp.max(1);
+        let mut q = p.clone();
+        q.final_gather_pixels = q.final_gather_pixels.saturating_mul(spp).min(1 << 16);
+        q.doubt_gather = q.doubt_gather.saturating_mul(spp).min(1 << 16);
+        Self::for_pixels(scene, h, sol, &q)
+    }
+
+    /// Indirect irradiance at a world-space point `(x, n)` as a pixel of the image that
+    /// saw it would read it ([`Readout::for_image_points`]): the basis on the object with
+    /// the most basis weight there ([`Solution::locate`]) where it is trusted, and a gather
+    /// where it is doubted (or everywhere, with `final_gather_pixels`); clamped at zero.
+    pub fn image_at(&self, x: Vec3, n: Vec3) -> Vec3 {
+        if self.gathers() {
+            return self.gather(x, n).mean.max(Vec3::ZERO);
+        }
+        let Some((o, p_obj, n_obj)) = self.sol.locate(self.scene, self.h, x, n, self.level) else {
+            return Vec3::ZERO;
+        };
+        let read = match &self.doubt {
+            Some(d) => match self.trusted_read(d, o, p_obj, n_obj) {
+                Some(read) => read,
+                None => self.gather_with(x, n, &d.halton, None).mean,
+            },
+            None => self.sol.indirect_on(self.h, o, p_obj, n_obj, self.level),
+        };
+        read.max(Vec3::ZERO)
     }
 
     /// The basis at a hit, in the hit object's space, clamped at zero.
