@@ -594,6 +594,42 @@ fn compare(a: &[Vec4], b: &[Vec4]) -> (f64, f64) {
     ((e2 / r2.max(1e-300)).sqrt(), worst)
 }
 
+/// Small solver settings for the generated scenes below.
+const SMALL_SOLVER: &str = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 64\nbounces = 2\n";
+
+/// A plane under a constant sky, the same under an environment map (a bright strip), and
+/// a lamp masked by an emission texture (`map_Ke`: the kernels read it per texel), written
+/// into `dir`.
+fn sky_and_emission_scenes(dir: &std::path::Path) -> Vec<(String, Scene, SolverParams)> {
+    let sky = meshrad::analytic::sky_plane(dir, 4.0, true, 1.0, SMALL_SOLVER).unwrap();
+    let text = std::fs::read_to_string(&sky).unwrap();
+    let map = dir.join("map.toml");
+    std::fs::write(
+        &map,
+        text.replace("radiance = [1, 1, 1]", "envmap = \"sky.exr\"\nrotate = 25.0"),
+    )
+    .unwrap();
+    exr::prelude::write_rgb_file(dir.join("sky.exr"), 16, 8, |x, y| {
+        let b = if (5..8).contains(&x) && y == 2 { 30.0f32 } else { 1.0 };
+        (0.3 * b, 0.4 * b + 0.01 * x as f32, 0.2 * b + 0.02 * y as f32)
+    })
+    .unwrap();
+    let masked = meshrad::analytic::masked_emitter(&dir.join("masked"), 4.0, 1.0, 1.0, 2.0, SMALL_SOLVER).unwrap();
+    let out: Vec<(String, Scene, SolverParams)> = [
+        ("constant sky", sky),
+        ("environment map", map),
+        ("emission texture", masked),
+    ]
+    .into_iter()
+    .map(|(name, path)| {
+        let (s, p) = common::load(&path, &[]);
+        (name.to_string(), s, p)
+    })
+    .collect();
+    assert!(out[2].1.textured());
+    out
+}
+
 /// Emitting surfaces and the sky on the GPU: the area-lit Cornell box (every variant, the
 /// exact first bounce's direct light at the hits included), a floor and wall under a
 /// constant sky and under an environment map, and a lamp masked by an emission texture
@@ -617,29 +653,7 @@ fn emitters_and_sky_solve_as_on_the_cpu() {
         p.exact_first_bounce = variant != Variant::Original;
         cases.push((format!("area-lit box, {variant:?}"), s, p));
     }
-    let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 64\nbounces = 2\n";
-    let sky = meshrad::analytic::sky_plane(dir.path(), 4.0, true, 1.0, solver).unwrap();
-    let (s, p) = common::load(&sky, &[]);
-    cases.push(("constant sky".into(), s, p));
-    let text = std::fs::read_to_string(&sky).unwrap();
-    let map = dir.path().join("map.toml");
-    std::fs::write(
-        &map,
-        text.replace("radiance = [1, 1, 1]", "envmap = \"sky.exr\"\nrotate = 25.0"),
-    )
-    .unwrap();
-    exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 16, 8, |x, y| {
-        let b = if (5..8).contains(&x) && y == 2 { 30.0f32 } else { 1.0 };
-        (0.3 * b, 0.4 * b + 0.01 * x as f32, 0.2 * b + 0.02 * y as f32)
-    })
-    .unwrap();
-    let (s, p) = common::load(&map, &[]);
-    cases.push(("environment map".into(), s, p));
-    // An emission texture (`map_Ke`): the kernels read it per texel at each sample.
-    let masked = meshrad::analytic::masked_emitter(&dir.path().join("masked"), 4.0, 1.0, 1.0, 2.0, solver).unwrap();
-    let (s, p) = common::load(&masked, &[]);
-    assert!(s.textured());
-    cases.push(("emission texture".into(), s, p));
+    cases.extend(sky_and_emission_scenes(dir.path()));
     for (name, s, p) in &cases {
         let g = meshrad::solve(s, p, &mut meshrad::Engine::gpu(ctx.clone()), &Progress::hidden()).unwrap();
         let c = meshrad::solve(s, p, &mut meshrad::Engine::cpu(), &Progress::hidden()).unwrap();
@@ -795,35 +809,15 @@ fn images_drawn_on_the_device_equal_the_cpu_images() {
     (s.camera.width, s.camera.height, s.camera.spp) = (16, 12, 16);
     (p.bounces, p.doubt_nodes, p.doubt_gather) = (2, 1024, 64);
     cases.push(("Cornell box, every sample gathers 64 rays".into(), s, p));
-    let solver = "levels = 4\ncoarsest = 60\nsender_level = 3\nrays = 64\nbounces = 2\n";
     let (mut s, mut p) = Scene::embedded_file("cornell_area.toml", &[]).unwrap();
     small(&mut s, 2);
     (p.levels, p.sender_level, p.rays, p.bounces) = (4, 3, 32, 2);
     cases.push(("area-lit box".into(), s, p));
-    let sky = meshrad::analytic::sky_plane(dir.path(), 4.0, true, 1.0, solver).unwrap();
-    let (mut s, p) = common::load(&sky, &[]);
-    small(&mut s, 2);
-    cases.push(("constant sky".into(), s, p));
-    let map = dir.path().join("map.toml");
-    let text = std::fs::read_to_string(&sky).unwrap();
-    std::fs::write(
-        &map,
-        text.replace("radiance = [1, 1, 1]", "envmap = \"sky.exr\"\nrotate = 25.0"),
-    )
-    .unwrap();
-    exr::prelude::write_rgb_file(dir.path().join("sky.exr"), 16, 8, |x, y| {
-        let b = if (5..8).contains(&x) && y == 2 { 30.0f32 } else { 1.0 };
-        (0.3 * b, 0.4 * b + 0.01 * x as f32, 0.2 * b + 0.02 * y as f32)
-    })
-    .unwrap();
-    let (mut s, p) = common::load(&map, &[]);
-    small(&mut s, 2);
-    cases.push(("environment map".into(), s, p));
-    let masked = meshrad::analytic::masked_emitter(&dir.path().join("masked"), 4.0, 1.0, 1.0, 2.0, solver).unwrap();
-    let (mut s, p) = common::load(&masked, &[]);
-    small(&mut s, 2);
-    cases.push(("emission texture".into(), s, p));
-    let sphere = meshrad::analytic::lit_sphere(&dir.path().join("sphere"), 1.0, 1, true, solver).unwrap();
+    for (name, mut s, p) in sky_and_emission_scenes(dir.path()) {
+        small(&mut s, 2);
+        cases.push((name, s, p));
+    }
+    let sphere = meshrad::analytic::lit_sphere(&dir.path().join("sphere"), 1.0, 1, true, SMALL_SOLVER).unwrap();
     let (mut s, p) = common::load(&sphere, &[]);
     assert!(!s.normals.is_empty());
     small(&mut s, 2);

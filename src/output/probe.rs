@@ -132,17 +132,7 @@ pub fn evaluate(
 ) -> Vec<ProbeValue> {
     let read = Readout::new(scene, h, sol, params);
     let samples = params.final_gather.max(params.emitter_samples) as usize;
-    probes
-        .par_iter()
-        .map(|q| {
-            let (direct, direct_se) = scene.direct_with_samples(q.p, q.n, samples);
-            ProbeValue {
-                direct,
-                direct_se,
-                indirect: read.at(q.p, q.n),
-            }
-        })
-        .collect()
+    evaluate_with(scene, probes, samples, |q| read.at(q.p, q.n))
 }
 
 /// [`evaluate`] with the indirect light read as the image reads it
@@ -156,17 +146,28 @@ pub fn evaluate_as_image(
     params: &SolverParams,
 ) -> Vec<ProbeValue> {
     let read = Readout::for_image_points(scene, h, sol, params);
+    evaluate_with(scene, probes, scene.emitters.samples(), |q| Read {
+        mean: read.image_at(q.p, q.n),
+        std_err: Vec3::ZERO,
+    })
+}
+
+/// Each probe's direct light from `samples` emitter and sky samples, and its indirect
+/// light as `indirect` reads it.
+fn evaluate_with(
+    scene: &Scene,
+    probes: &[Probe],
+    samples: usize,
+    indirect: impl Fn(&Probe) -> Read + Sync,
+) -> Vec<ProbeValue> {
     probes
         .par_iter()
         .map(|q| {
-            let (direct, direct_se) = scene.direct_with_error(q.p, q.n);
+            let (direct, direct_se) = scene.direct_with_samples(q.p, q.n, samples);
             ProbeValue {
                 direct,
                 direct_se,
-                indirect: Read {
-                    mean: read.image_at(q.p, q.n),
-                    std_err: Vec3::ZERO,
-                },
+                indirect: indirect(q),
             }
         })
         .collect()
