@@ -10,7 +10,7 @@ use glam::Vec4;
 
 use super::arrange::{ArrangeKernels, Arranged};
 use super::globals::{LINK_RECORD_BYTES, RAY_BYTES};
-use super::kernels::image::Image;
+use super::image::ImageState;
 use super::kernels::{Kernels, Recorder};
 use super::resources::{cwbvh_of, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use super::schedule::{Active, Schedule};
@@ -101,7 +101,7 @@ pub struct GpuBackend<'a> {
     /// Bounces this solve has ended (`Schedule::linked_levels` reads it).
     bounces_done: u32,
     /// The `image` kernel, once an image was drawn on this state (`super::image`).
-    image: Option<Image>,
+    image: Option<ImageState>,
     pub report: GpuReport,
 }
 
@@ -115,7 +115,7 @@ pub struct GpuResident {
     pub(super) prof: Profiler,
     pub(super) res: Resources,
     /// The `image` kernel, built at the first image drawn on this state (`super::image`).
-    pub(super) image: Option<Image>,
+    pub(super) image: Option<ImageState>,
     batch: u32,
     /// The link counters when the last solve ended (`None` before the first solve).
     link_base: Option<[u32; LINK_COUNTERS as usize]>,

@@ -26,6 +26,14 @@ use crate::progress::Progress;
 use crate::scene::camera::Filter;
 use crate::scene::Scene;
 
+/// What the images drawn on a resident state keep between them: the `image` pipeline and
+/// the scene's corner normals (36 bytes a triangle, where it has any), built and uploaded
+/// at the first image.
+pub struct ImageState {
+    kernel: Image,
+    normals: Option<Buffer>,
+}
+
 /// The pixels of an image drawn on the device, as radiance (`output::image::Images`
 /// before its negative indirect pixels are clamped).
 pub struct Pixels {
@@ -59,7 +67,19 @@ impl GpuResident {
         let cam = &scene.camera;
         let (w, h) = (cam.width, cam.height);
         if self.image.is_none() {
-            self.image = Some(Image::new(ctx, specialization(p, scene))?);
+            // The corner normals are in object space: a rigid edit leaves them as they are,
+            // and a rebuild makes a new resident state.
+            let normals = if scene.normals.is_empty() {
+                None
+            } else {
+                let mut flat: Vec<f32> = scene.normals.iter().flatten().copied().collect();
+                flat.resize(scene.tris.len() * 9, 0.0);
+                Some(Buffer::upload(ctx, "corner normals", &flat)?)
+            };
+            self.image = Some(ImageState {
+                kernel: Image::new(ctx, specialization(p, scene))?,
+                normals,
+            });
         }
         let (mode, rays) = if p.final_gather_pixels > 0 {
             (IMAGE_GATHER, p.final_gather_pixels)
@@ -69,13 +89,6 @@ impl GpuResident {
             (IMAGE_BASIS, 0)
         };
         let halton = Buffer::upload(ctx, "image gather directions", &halton_table(rays))?;
-        let normals = if scene.normals.is_empty() {
-            None
-        } else {
-            let mut flat: Vec<f32> = scene.normals.iter().flatten().copied().collect();
-            flat.resize(scene.tris.len() * 9, 0.0);
-            Some(Buffer::upload(ctx, "corner normals", &flat)?)
-        };
         // A sample's gather in chunks of at most IMAGE_CHUNK_RAYS rays, one thread each, and
         // at most IMAGE_PIXEL_SLOTS slots a pixel (larger chunks beyond that).
         let spp = cam.spp.max(1);
@@ -89,7 +102,11 @@ impl GpuResident {
             forward: v4(cam.forward, 0.0),
             right: v4(cam.right, 0.0),
             up: v4(cam.up, 0.0),
-            normals: normals.as_ref().map_or(0, |b| b.address),
+            normals: self
+                .image
+                .as_ref()
+                .and_then(|i| i.normals.as_ref())
+                .map_or(0, |b| b.address),
             halton: halton.address,
             width: w,
             height: h,
@@ -126,7 +143,7 @@ impl GpuResident {
         let (mut hits, mut gathered) = (0u64, 0u64);
         let before = self.prof.totals.get(Image::NAME).map_or(0.0, |t| t.0);
         let bar = progress.bar(n as u64, "image (device)");
-        let kernel = self.image.as_ref().expect("built above");
+        let kernel = &self.image.as_ref().expect("built above").kernel;
         let globals = self.res.globals.address;
         let mut first = 0u32;
         while (first as usize) < n {
