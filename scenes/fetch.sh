@@ -5,6 +5,8 @@
 #   bash scenes/fetch.sh NAME...    downloads NAME into $MESHRAD_SCENES/public/NAME/
 #                                   (default ../shared/scenes/public) and writes NAME.toml
 # then: meshrad solve $MESHRAD_SCENES/public/NAME/NAME.toml
+#   PBRSCENES=DIR bash scenes/fetch.sh staircase   converts from a local checkout of
+#                                   github.com/Zielon/PBRScenes instead of downloading
 # glTF models come from the Khronos glTF Sample Assets repository; each keeps its own
 # licence (listed here and in that repository's Models/NAME/README.md). McGuire's
 # Computer Graphics Archive (Sibenik, Conference, Lost Empire, the sports car) offers its
@@ -25,18 +27,58 @@ models=(
   "AlphaBlendModeTest|AlphaBlendModeTest/glTF-Binary/AlphaBlendModeTest.glb|see its README"
   "Sponza|Sponza/glTF/Sponza.gltf|CC-BY 3.0, Frank Meinl, Crytek (see its README)"
 )
+# Interiors lit by lights inside them, from github.com/Zielon/PBRScenes (a collection
+# for a Vulkan path tracer of scenes after Benedikt Bitterli's rendering resources,
+# https://benedikt-bitterli.me/resources/, where each scene's author and licence are
+# listed). Set PBRSCENES to a local checkout of that repository to convert without
+# downloading.
+pbr=https://raw.githubusercontent.com/Zielon/PBRScenes/main
+interiors=(
+  "staircase|Staircase by Wig42 after Bitterli's resources (see that page for its licence)"
+)
 root=${MESHRAD_SCENES:-$(cd "$(dirname "$0")/.." && pwd)/../shared/scenes}/public
 if [ $# = 0 ]; then
   echo "glTF models (Khronos glTF Sample Assets, $base):"
   for m in "${models[@]}"; do IFS='|' read -r name file lic <<<"$m"; printf '  %-20s %s\n' "$name" "$lic"; done
   echo "OBJ scenes by hand from McGuire's Computer Graphics Archive, https://casual-effects.com/data/"
   echo "  (Sibenik, Conference, Lost Empire, sportsCar: each zip's licence is on that page)"
+  echo "Interiors (Tinsel .scene files, converted by scenes/tinsel2meshrad.py; issue #32):"
+  for m in "${interiors[@]}"; do IFS='|' read -r name lic <<<"$m"; printf '  %-20s %s\n' "$name" "$lic"; done
   echo "into: $root"
   exit 0
 fi
 command -v curl >/dev/null || { echo "fetch.sh: needs curl" >&2; exit 1; }
+fetch_interior() { # NAME DIR: the .scene file and every file it names, then converted
+  local name=$1 dir=$2 src=$2/source f
+  mkdir -p "$src"
+  if [ -n "${PBRSCENES:-}" ]; then
+    cp "$PBRSCENES/$name.scene" "$src/"
+  else
+    echo "fetch.sh: $name from $pbr/$name.scene"
+    curl -fsSL "$pbr/$name.scene" -o "$src/$name.scene"
+  fi
+  awk 'tolower($1) == "file" || tolower($1) == "albedotexture" { print $2 }' "$src/$name.scene" | sort -u |
+    while read -r f; do
+      mkdir -p "$src/$(dirname "$f")"
+      if [ -n "${PBRSCENES:-}" ]; then
+        cp "$PBRSCENES/$f" "$src/$f" 2>/dev/null || echo "fetch.sh: $PBRSCENES/$f is missing" >&2
+      else
+        curl -fsSL "$pbr/$f" -o "$src/$f.part" && mv "$src/$f.part" "$src/$f" ||
+          echo "fetch.sh: $pbr/$f could not be fetched" >&2
+      fi
+    done
+  python3 "$(dirname "$0")/tinsel2meshrad.py" "$src/$name.scene" "$dir" "$name"
+  echo "fetch.sh: wrote $dir/$name.toml"
+}
 for want in "$@"; do
   found=""
+  for m in "${interiors[@]}"; do
+    IFS='|' read -r name lic <<<"$m"
+    [ "$name" = "$want" ] || continue
+    found=1
+    echo "fetch.sh: $name ($lic)"
+    fetch_interior "$name" "$root/$name"
+  done
   for m in "${models[@]}"; do
     IFS='|' read -r name file lic <<<"$m"
     [ "$name" = "$want" ] || continue

@@ -130,6 +130,12 @@ pub struct SolverParams {
     /// Rays of a final gather at each probe point: the last hop traced, the basis read at
     /// its hits (0: the basis read at the point itself).
     pub final_gather: u32,
+    /// A probe's final-gather ray that hits a surface nearer than the output level's
+    /// support there (a gap behind a panel, the inside of a board, a crevice: where the
+    /// basis cannot resolve the light) takes one more cosine hop instead of reading the
+    /// basis at that hit, up to this many hops (`ALGORITHM.md` §6); 0: the basis at every
+    /// hit. Probes only: images keep the basis at their gathers' hits.
+    pub short_hops: u32,
     /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
     pub final_gather_pixels: u32,
     /// Without `final_gather_pixels`: rays of a final gather at the pixel samples whose
@@ -234,6 +240,7 @@ impl Default for SolverParams {
             gather_levels: None,
             output_level: None,
             final_gather: 1024,
+            short_hops: 8,
             final_gather_pixels: 0,
             doubt_gather: 16,
             doubt_nodes: 4,
@@ -315,6 +322,7 @@ impl SolverParams {
         range("output_level", self.output_level(), 0, self.levels - 1)?;
         range("final_gather", self.final_gather, 0, 1 << 16)?;
         range("final_gather_pixels", self.final_gather_pixels, 0, 1 << 16)?;
+        range("short_hops", self.short_hops, 0, 64)?;
         range("doubt_gather", self.doubt_gather, 0, 1 << 16)?;
         range("doubt_nodes", self.doubt_nodes, 0, 1 << 10)?;
         finite("doubt_spread", self.doubt_spread, 0.0, 1e6)?;

@@ -390,3 +390,85 @@ fn stacked_sheets_keep_their_own_light() {
         off.median_ratio
     );
 }
+
+/// A panel 30 cm tall hung 3 cm in front of the gallery's back wall, under the roof (Bitterli's
+/// staircase has its stair stringer so, 3–4 cm off the wall): the wall behind it gets a
+/// fraction of the light the open wall beside it gets, through a gap far narrower than
+/// the finest level's support. The crevice test leaves the gap without nodes, so every
+/// node that answers there stands on the open wall. A probe's final gather from the gap
+/// lands on the panel's back and the wall at once; reading the basis at those hits
+/// takes the open wall's light into the gap. With `short_hops` the path takes one more
+/// hop where a hop is shorter than the support (`ALGORITHM.md` §6) and leaves the gap as
+/// the light entered it. The probes behind the panel against the converged reference;
+/// the test fails when the gap is lit at the defaults, and checks that without the hops
+/// it still is (the case is still there).
+#[test]
+fn the_gap_behind_a_panel_stays_dark() {
+    let dir = common::tmpdir();
+    let path = write_gallery(dir.path());
+    let mut obj = std::fs::read_to_string(dir.path().join("gallery.obj")).unwrap();
+    let mut n = obj.lines().filter(|l| l.starts_with("v ")).count();
+    cuboid(&mut obj, &mut n, [5.0, 1.0, 0.03], [9.0, 1.3, 0.07], "column");
+    std::fs::write(dir.path().join("gallery.obj"), obj).unwrap();
+    let probes: Vec<_> = (0..8)
+        .flat_map(|i| (0..2).map(move |j| (i, j)))
+        .map(|(i, j)| meshrad::output::probe::Probe {
+            p: Vec3::new(5.4 + 0.45 * i as f32, 1.06 + 0.06 * j as f32, 0.0),
+            n: Vec3::Z,
+        })
+        .collect();
+    let mut stats = Vec::new();
+    for hops in ["8", "0"] {
+        let (scene, p) = common::load(&path, &[("short_hops", hops)]);
+        let refs = stats.is_empty().then(|| {
+            let pts: Vec<_> = probes.iter().map(|q| (q.p, q.n)).collect();
+            let opts = ReferenceOptions {
+                samples: 32768,
+                max_bounces: 0,
+                ..Default::default()
+            };
+            reference::indirect_many(&scene, &pts, &opts)
+        });
+        let (h, sol) = common::solve_cpu(&scene, &p);
+        let read = Readout::new(&scene, &h, &sol, &p);
+        let est: Vec<_> = probes.iter().map(|q| read.at(q.p, q.n).mean).collect();
+        stats.push((est, refs));
+    }
+    let refs = stats[0].1.clone().unwrap();
+    let errs: Vec<_> = stats.iter().map(|(est, _)| indirect_error(est, &refs)).collect();
+    for k in 0..probes.len() {
+        println!(
+            "GAP {:?}: reference {:.4} ± {:.4}, short hops {:.4}, none {:.4}",
+            probes[k].p,
+            refs[k].mean.x,
+            refs[k].std_err.x,
+            stats[0].0[k].x,
+            stats[1].0[k].x
+        );
+    }
+    for (e, hops) in errs.iter().zip(["8", "0"]) {
+        println!(
+            "GAP short_hops {hops}: rel-RMS {:.2} %, median e/r {:.3}, energy {:.3}, off 3x {} of {}, reference noise {:.2} %",
+            100.0 * e.rel_rms,
+            e.median_ratio,
+            e.energy_ratio,
+            e.off_3x,
+            e.points,
+            100.0 * e.reference_noise
+        );
+    }
+    let (on, off) = (&errs[0], &errs[1]);
+    assert!(on.points >= 14, "only {} of the gap's points are measurable", on.points);
+    assert!(
+        on.rel_rms < 0.1 && (0.9..=1.1).contains(&on.median_ratio),
+        "the gap behind the panel: rel-RMS {:.2} %, median estimate/reference {:.3}",
+        100.0 * on.rel_rms,
+        on.median_ratio
+    );
+    assert!(
+        off.rel_rms > on.rel_rms + 0.15,
+        "without the short hops the gap is no longer lit ({:.2} % against {:.2} %): the test lost its case",
+        100.0 * off.rel_rms,
+        100.0 * on.rel_rms
+    );
+}

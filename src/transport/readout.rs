@@ -9,7 +9,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::geom::rng::hash2;
+use crate::geom::rng::{hash2, hash_to_unit};
 use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
 use crate::geom::Ray;
 use crate::hierarchy::Hierarchy;
@@ -37,6 +37,9 @@ pub struct Readout<'a> {
     halton: Vec<Vec2>,
     /// Where the basis is read: the gather at hits where it is doubted (pixels only).
     doubt: Option<Doubt>,
+    /// Most hops a probe's gather ray continues where it lands nearer than the basis
+    /// resolves (`SolverParams::short_hops`; 0 for pixels).
+    short_hops: u32,
 }
 
 /// A final gather at the pixel samples whose basis read cannot be trusted (`ALGORITHM.md`
@@ -63,6 +66,9 @@ impl<'a> Readout<'a> {
     /// doubted (`doubt_nodes`, `doubt_spread`; 0 rays: never).
     pub fn for_pixels(scene: &'a Scene, h: &'a Hierarchy, sol: &'a Solution, p: &SolverParams) -> Self {
         let mut r = Self::with_rays(scene, h, sol, p, p.final_gather_pixels);
+        // The device's image kernel reads the basis at every gather hit; so do the CPU's
+        // pixels, its twin.
+        r.short_hops = 0;
         if r.halton.is_empty() && p.doubt_gather > 0 {
             r.doubt = Some(Doubt {
                 halton: halton_table(p.doubt_gather),
@@ -95,6 +101,7 @@ impl<'a> Readout<'a> {
             seed: p.seed,
             halton: if rays > 0 { halton_table(rays) } else { Vec::new() },
             doubt: None,
+            short_hops: p.short_hops,
         }
     }
 
@@ -213,6 +220,42 @@ impl<'a> Readout<'a> {
             .max(Vec3::ZERO)
     }
 
+    /// The indirect irradiance at a gather hit `s` that a hop of length `t` reached: the
+    /// basis, unless the hop is shorter than the output level's support on the hit's
+    /// object. Then the hit lies in a gap the basis does not resolve (the light between a
+    /// panel and its wall, inside a board, at the bottom of a crevice: nodes a support
+    /// away, on the open side, would answer for it), and the path takes one more
+    /// cosine-distributed hop instead, `ρ (E_d + E_ind)` at its hit (`E_d` with one
+    /// emitter and sky sample), up to `short_hops` hops (`ALGORITHM.md` §6). A path that leaves the scene or meets a black surface
+    /// carries nothing, as in the gather itself.
+    fn past_short_hops(&self, s: &Surface, t: f32, key: u32, depth: u32) -> Vec3 {
+        let o = s.object as usize;
+        let support = self.scene.objects[o].transform.scale * self.h.support(o, self.level as usize);
+        if depth >= self.short_hops || t >= support {
+            return self.basis(s);
+        }
+        let u = Vec2::new(hash_to_unit(hash2(key, 2 * depth + 1)), hash_to_unit(hash2(key, 2 * depth + 2)));
+        let (tb, bb) = onb(s.n);
+        let d = cosine_direction(s.n, tb, bb, u, 0.0);
+        let ray = Ray {
+            o: self.scene.offset(s.p, s.n),
+            d,
+        };
+        let Some(hit) = self.scene.intersect(&ray, f32::INFINITY) else {
+            return Vec3::ZERO;
+        };
+        let z = self.scene.surface(&hit, d);
+        if z.albedo.max_element() <= 0.0 {
+            return Vec3::ZERO;
+        }
+        // One emitter and sky sample, as at a gathering ray's hit: the gather's mean
+        // averages many such paths.
+        let direct = self
+            .scene
+            .direct_one_seeded(z.p, z.n, (u64::from(key) << 32) | u64::from(depth + 1));
+        z.albedo * (direct + self.past_short_hops(&z, hit.t, key, depth + 1))
+    }
+
     /// The final gather at `(x, n)`. Its rotation is hashed from the point's coordinates,
     /// so a point gets the same rays whatever else is evaluated and in whatever order.
     fn gather(&self, x: Vec3, n: Vec3) -> Read {
@@ -244,8 +287,12 @@ impl<'a> Readout<'a> {
                 Some(k) => self.scene.direct_seeded(s.p, s.n, pixel_seed(k, r as u32 + 1)),
                 None => self.scene.direct(s.p, s.n),
             };
-            let e = direct + self.basis(&s);
-            est.add(s.albedo * e);
+            let indirect = if self.short_hops > 0 {
+                self.past_short_hops(&s, hit.t, hash2(key, r as u32), 0)
+            } else {
+                self.basis(&s)
+            };
+            est.add(s.albedo * (direct + indirect));
         }
         let g = est.finish(halton.len());
         Read {
