@@ -34,6 +34,10 @@ layout(buffer_reference, std430, buffer_reference_align = 16) buffer ImageInfoRe
     float doubt_spread;
     uint chunks;      // chunks a sample's gather is split into (one thread each)
     uint chunk_rays;  // rays of a chunk (the last may have fewer)
+    uint short_hops;  // most hops past hits nearer than the output level's support
+    uint pad0;
+    uint pad1;
+    uint pad2;
 };
 
 // Push constants: src/device/kernels/image.rs `ImagePush`.
@@ -181,11 +185,47 @@ vec3 basis_at(GlobalsRef g, uint object, vec3 p_obj, vec3 n_obj, uint level) {
     return recon_exact(g, ob, level, p_obj, n_obj, g.indirect);
 }
 
+// Readout::past_short_hops, as a loop (GLSL has no recursion): the indirect irradiance at
+// a gather hit `s` that a hop of length `t` reached. Where the hop is shorter than the
+// output level's support on the hit's object, the path takes one more cosine hop and adds
+// ρ E_d at its hit (one emitter and sky sample), up to `short_hops` hops; then the basis.
+vec3 past_short_hops(GlobalsRef g, ImageInfoRef info, Surf s, float t, uint key) {
+    vec3 sum = vec3(0.0);
+    vec3 weight = vec3(1.0);
+    for (uint depth = 0u; depth <= info.short_hops; depth++) {
+        ObjectInfo ob = g.objects.v[s.object];
+        if (depth == info.short_hops || t >= ob.scale * g.kappa * ob.radius[info.level]) {
+            return sum + weight * max(basis_at(g, s.object, s.p_obj, s.n_obj, info.level), vec3(0.0));
+        }
+        vec2 u = vec2(hash_to_unit(hash2(key, 2u * depth + 1u)), hash_to_unit(hash2(key, 2u * depth + 2u)));
+        vec3 tb;
+        vec3 bb;
+        onb(s.n, tb, bb);
+        vec3 d = cosine_direction(s.n, tb, bb, u, 0.0);
+        uint tri;
+        vec3 tuv;
+        uint object = trace_scene(g, offset_origin(s.p, s.n, g.scene_scale), d, FAR, tri, tuv);
+        if (object == NONE) {
+            return sum;
+        }
+        s = surface_at(g, info, object, tri, tuv, d);
+        if (max(s.a.x, max(s.a.y, s.a.z)) <= 0.0) {
+            return sum;
+        }
+        vec3 se;
+        weight *= s.a;
+        sum += weight * direct_at(g, s.p, s.n, false, (uint64_t(key) << 32) | uint64_t(depth + 1u), 1u, se);
+        t = tuv.x;
+    }
+    return sum;
+}
+
 // Readout::gather_with for image sample `sid`, its rays r0 .. r1 of `gather_rays`
 // cosine-distributed rays: their part of the mean of each hit's ρ (E_d + E_ind), E_d by
 // shadow rays and E_ind the basis clamped at zero.
 vec3 gather_at(GlobalsRef g, ImageInfoRef info, vec3 x, vec3 n, uint64_t sid, uint r0, uint r1) {
-    float phi0 = integral_rotation(info.seed ^ 0x0f1a6a7eu, pixel_key(sid));
+    uint key = pixel_key(sid);
+    float phi0 = integral_rotation(info.seed ^ 0x0f1a6a7eu, key);
     vec3 t;
     vec3 b;
     onb(n, t, b);
@@ -204,8 +244,9 @@ vec3 gather_at(GlobalsRef g, ImageInfoRef info, vec3 x, vec3 n, uint64_t sid, ui
             continue;
         }
         vec3 se;
-        vec3 e = direct_at(g, s.p, s.n, false, pixel_seed(sid, r + 1u), g.emitter_samples, se)
-               + max(basis_at(g, s.object, s.p_obj, s.n_obj, info.level), vec3(0.0));
+        vec3 indirect = info.short_hops > 0u ? past_short_hops(g, info, s, tuv.x, hash2(key, r))
+                                             : max(basis_at(g, s.object, s.p_obj, s.n_obj, info.level), vec3(0.0));
+        vec3 e = direct_at(g, s.p, s.n, false, pixel_seed(sid, r + 1u), g.emitter_samples, se) + indirect;
         sum += s.a * e;
     }
     return sum / float(max(info.gather_rays, 1u));

@@ -201,4 +201,8 @@ pub struct ImageInfo {
     /// Chunks a sample's gather is split into (one thread each), and their rays.
     pub chunks: u32,
     pub chunk_rays: u32,
+    /// `SolverParams::short_hops`: most hops a gather ray takes past hits nearer than the
+    /// output level's support.
+    pub short_hops: u32,
+    pub pad: [u32; 3],
 }

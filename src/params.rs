@@ -130,11 +130,11 @@ pub struct SolverParams {
     /// Rays of a final gather at each probe point: the last hop traced, the basis read at
     /// its hits (0: the basis read at the point itself).
     pub final_gather: u32,
-    /// A probe's final-gather ray that hits a surface nearer than the output level's
-    /// support there (a gap behind a panel, the inside of a board, a crevice: where the
-    /// basis cannot resolve the light) takes one more cosine hop instead of reading the
-    /// basis at that hit, up to this many hops (`ALGORITHM.md` §6); 0: the basis at every
-    /// hit. Probes only: images keep the basis at their gathers' hits.
+    /// A final-gather ray (a probe's, or a pixel's where it gathers) that hits a surface
+    /// nearer than the output level's support there (a gap behind a panel, the inside of
+    /// a board, a crevice: where the basis cannot resolve the light) takes one more cosine
+    /// hop instead of reading the basis at that hit, up to this many hops (`ALGORITHM.md`
+    /// §6); 0: the basis at every hit.
     pub short_hops: u32,
     /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
     pub final_gather_pixels: u32,

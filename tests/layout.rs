@@ -245,9 +245,10 @@ fn gpu_struct_offsets_match_the_host_structs() {
         doubt_nodes,
         doubt_spread,
         chunks,
-        chunk_rays
+        chunk_rays,
+        short_hops
     );
-    assert_eq!(std::mem::size_of::<ImageInfo>(), 128);
+    assert_eq!(std::mem::size_of::<ImageInfo>(), 144);
     // Each kernel's push constants (one block per kernel; the four kernels of a gathering
     // batch share GatherPush).
     check("ImagePush", "g", offset_of!(ImagePush, globals));

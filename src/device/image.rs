@@ -123,6 +123,8 @@ impl GpuResident {
             doubt_spread: p.doubt_spread,
             chunks,
             chunk_rays,
+            short_hops: p.short_hops,
+            pad: [0; 3],
         };
         let info_buf = Buffer::upload(ctx, "image info", std::slice::from_ref(&info))?;
         let n = w as usize * h as usize;

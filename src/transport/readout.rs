@@ -37,8 +37,8 @@ pub struct Readout<'a> {
     halton: Vec<Vec2>,
     /// Where the basis is read: the gather at hits where it is doubted (pixels only).
     doubt: Option<Doubt>,
-    /// Most hops a probe's gather ray continues where it lands nearer than the basis
-    /// resolves (`SolverParams::short_hops`; 0 for pixels).
+    /// Most hops a gather ray continues where it lands nearer than the basis resolves
+    /// (`SolverParams::short_hops`).
     short_hops: u32,
 }
 
@@ -66,9 +66,6 @@ impl<'a> Readout<'a> {
     /// doubted (`doubt_nodes`, `doubt_spread`; 0 rays: never).
     pub fn for_pixels(scene: &'a Scene, h: &'a Hierarchy, sol: &'a Solution, p: &SolverParams) -> Self {
         let mut r = Self::with_rays(scene, h, sol, p, p.final_gather_pixels);
-        // The device's image kernel reads the basis at every gather hit; so do the CPU's
-        // pixels, its twin.
-        r.short_hops = 0;
         if r.halton.is_empty() && p.doubt_gather > 0 {
             r.doubt = Some(Doubt {
                 halton: halton_table(p.doubt_gather),
