@@ -439,11 +439,7 @@ fn the_gap_behind_a_panel_stays_dark() {
     for k in 0..probes.len() {
         println!(
             "GAP {:?}: reference {:.4} ± {:.4}, short hops {:.4}, none {:.4}",
-            probes[k].p,
-            refs[k].mean.x,
-            refs[k].std_err.x,
-            stats[0].0[k].x,
-            stats[1].0[k].x
+            probes[k].p, refs[k].mean.x, refs[k].std_err.x, stats[0].0[k].x, stats[1].0[k].x
         );
     }
     for (e, hops) in errs.iter().zip(["8", "0"]) {

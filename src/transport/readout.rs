@@ -231,7 +231,10 @@ impl<'a> Readout<'a> {
         if depth >= self.short_hops || t >= support {
             return self.basis(s);
         }
-        let u = Vec2::new(hash_to_unit(hash2(key, 2 * depth + 1)), hash_to_unit(hash2(key, 2 * depth + 2)));
+        let u = Vec2::new(
+            hash_to_unit(hash2(key, 2 * depth + 1)),
+            hash_to_unit(hash2(key, 2 * depth + 2)),
+        );
         let (tb, bb) = onb(s.n);
         let d = cosine_direction(s.n, tb, bb, u, 0.0);
         let ray = Ray {
