@@ -5,7 +5,8 @@
 //! read from the basis at `y`. The final gather makes the last hop exact up to Monte Carlo
 //! noise: the interpolation of the basis across the receiver (over a column base, under an
 //! arch, across a shadow edge) no longer decides the answer, only the smoothed light that
-//! arrives from one bounce further away.
+//! arrives from one bounce further away. A gather ray whose hit lies nearer than the
+//! basis resolves hops on instead of reading it there (`short_hops`).
 
 use glam::{Vec2, Vec3};
 
@@ -223,8 +224,9 @@ impl<'a> Readout<'a> {
     /// panel and its wall, inside a board, at the bottom of a crevice: nodes a support
     /// away, on the open side, would answer for it), and the path takes one more
     /// cosine-distributed hop instead, `ρ (E_d + E_ind)` at its hit (`E_d` with one
-    /// emitter and sky sample), up to `short_hops` hops (`ALGORITHM.md` §6). A path that leaves the scene or meets a black surface
-    /// carries nothing, as in the gather itself.
+    /// emitter and sky sample), up to `short_hops` hops (`ALGORITHM.md` §6). A path that
+    /// leaves the scene or meets a black surface carries nothing, as in the gather itself.
+    /// The `image` kernel's `past_short_hops` is its twin, as a loop.
     fn past_short_hops(&self, s: &Surface, t: f32, key: u32, depth: u32) -> Vec3 {
         let o = s.object as usize;
         let support = self.scene.objects[o].transform.scale * self.h.support(o, self.level as usize);
