@@ -82,6 +82,16 @@ fn write_gallery(dir: &Path) -> PathBuf {
     p
 }
 
+/// The gallery with one more box `[lo, hi]` of `material`; returns the scene file.
+fn write_gallery_with(dir: &Path, lo: [f64; 3], hi: [f64; 3], material: &str) -> PathBuf {
+    let path = write_gallery(dir);
+    let mut obj = std::fs::read_to_string(dir.join("gallery.obj")).unwrap();
+    let mut n = obj.lines().filter(|l| l.starts_with("v ")).count();
+    cuboid(&mut obj, &mut n, lo, hi, material);
+    std::fs::write(dir.join("gallery.obj"), obj).unwrap();
+    path
+}
+
 /// The converged reference (the whole series, 4096 paths) at `probes`.
 fn converged(scene: &meshrad::scene::Scene, probes: &[meshrad::output::probe::Probe]) -> Vec<reference::Estimate> {
     let pts: Vec<_> = probes.iter().map(|q| (q.p, q.n)).collect();
@@ -330,11 +340,7 @@ fn narrow_faces_get_their_light() {
 #[test]
 fn stacked_sheets_keep_their_own_light() {
     let dir = common::tmpdir();
-    let path = write_gallery(dir.path());
-    let mut obj = std::fs::read_to_string(dir.path().join("gallery.obj")).unwrap();
-    let mut n = obj.lines().filter(|l| l.starts_with("v ")).count();
-    cuboid(&mut obj, &mut n, [5.0, 0.1, 0.6], [9.0, 0.12, 2.2], "wall");
-    std::fs::write(dir.path().join("gallery.obj"), obj).unwrap();
+    let path = write_gallery_with(dir.path(), [5.0, 0.1, 0.6], [9.0, 0.12, 2.2], "wall");
     let under = |q: &meshrad::output::probe::Probe| {
         (5.0..=9.0).contains(&q.p.x) && (0.6..=2.2).contains(&q.p.z) && q.p.y < 0.13 && q.n.y > 0.9
     };
@@ -405,11 +411,7 @@ fn stacked_sheets_keep_their_own_light() {
 #[test]
 fn the_gap_behind_a_panel_stays_dark() {
     let dir = common::tmpdir();
-    let path = write_gallery(dir.path());
-    let mut obj = std::fs::read_to_string(dir.path().join("gallery.obj")).unwrap();
-    let mut n = obj.lines().filter(|l| l.starts_with("v ")).count();
-    cuboid(&mut obj, &mut n, [5.0, 1.0, 0.03], [9.0, 1.3, 0.07], "column");
-    std::fs::write(dir.path().join("gallery.obj"), obj).unwrap();
+    let path = write_gallery_with(dir.path(), [5.0, 1.0, 0.03], [9.0, 1.3, 0.07], "column");
     let probes: Vec<_> = (0..8)
         .flat_map(|i| (0..2).map(move |j| (i, j)))
         .map(|(i, j)| meshrad::output::probe::Probe {
