@@ -37,24 +37,12 @@ const COLORS: [RGBColor; 8] = [
 pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
     register_font();
     let pts: Vec<&Row> = rows.iter().filter(|r| r.seconds > 0.0 && r.headline() > 0.0).collect();
-    if pts.is_empty() {
-        return Err(Error::Output {
-            path: path.into(),
-            message: "nothing to plot".into(),
-        });
-    }
-    let (mut t0, mut t1, mut e0, mut e1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for r in &pts {
-        t0 = t0.min(r.seconds);
-        t1 = t1.max(r.seconds);
-        e0 = e0.min(r.headline());
-        e1 = e1.max(r.headline());
-    }
+    let extent = extent(pts.iter().map(|r| (r.seconds, r.headline())), path)?;
     let root = BitMapBackend::new(path, (1100, 750)).into_drawing_area();
     let mut chart = log_chart(
         &root,
         title,
-        (t0, t1, e0, e1),
+        extent,
         (
             "time to solution (s, log)",
             "rel-RMS of indirect irradiance, worse stratum (log)",
@@ -111,26 +99,18 @@ pub fn error_vs_time(rows: &[Row], title: &str, path: &Path) -> Result<()> {
 /// (the image front: `bench::images`), into `path`.
 pub fn lines(title: &str, series: &[(String, Vec<(f64, f64)>)], path: &Path) -> Result<()> {
     register_font();
-    let all: Vec<(f64, f64)> = series
-        .iter()
-        .flat_map(|(_, p)| p.iter().copied())
-        .filter(|&(t, e)| t > 0.0 && e > 0.0)
-        .collect();
-    if all.is_empty() {
-        return Err(Error::Output {
-            path: path.into(),
-            message: "nothing to plot".into(),
-        });
-    }
-    let (mut t0, mut t1, mut e0, mut e1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
-    for &(t, e) in &all {
-        (t0, t1, e0, e1) = (t0.min(t), t1.max(t), e0.min(e), e1.max(e));
-    }
+    let extent = extent(
+        series
+            .iter()
+            .flat_map(|(_, p)| p.iter().copied())
+            .filter(|&(t, e)| t > 0.0 && e > 0.0),
+        path,
+    )?;
     let root = BitMapBackend::new(path, (1100, 750)).into_drawing_area();
     let mut chart = log_chart(
         &root,
         title,
-        (t0, t1, e0, e1),
+        extent,
         (
             "end-to-end time (s, log)",
             "rel-RMS of the total image, all pixels (%, log)",
@@ -153,6 +133,21 @@ pub fn lines(title: &str, series: &[(String, Vec<(f64, f64)>)], path: &Path) -> 
             .legend(move |(x, y)| Circle::new((x + 10, y), 5, color.filled()));
     }
     finish(&mut chart, &root).map_err(|e| out_err(path, e))
+}
+
+/// The range `(t0, t1, e0, e1)` of the points to plot into `path`; an error naming it
+/// when there are none.
+fn extent(points: impl Iterator<Item = (f64, f64)>, path: &Path) -> Result<(f64, f64, f64, f64)> {
+    let (t0, t1, e0, e1) = points.fold((f64::MAX, f64::MIN, f64::MAX, f64::MIN), |(t0, t1, e0, e1), (t, e)| {
+        (t0.min(t), t1.max(t), e0.min(e), e1.max(e))
+    });
+    if t0 > t1 {
+        return Err(Error::Output {
+            path: path.into(),
+            message: "nothing to plot".into(),
+        });
+    }
+    Ok((t0, t1, e0, e1))
 }
 
 /// A chart of both axes logarithmic over `(t0, t1)` × `(e0, e1)` (widened by 1.5× each
@@ -208,5 +203,19 @@ fn out_err(path: &Path, e: impl std::fmt::Display) -> Error {
     Error::Output {
         path: path.into(),
         message: e.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn extent_spans_the_points_and_names_the_file_when_there_are_none() {
+        let path = Path::new("front.png");
+        let pts = [(2.0, 0.05), (0.5, 0.2), (8.0, 0.01)];
+        assert_eq!(extent(pts.into_iter(), path).unwrap(), (0.5, 8.0, 0.01, 0.2));
+        let err = extent(std::iter::empty(), path).unwrap_err().to_string();
+        assert!(err.contains("front.png") && err.contains("nothing to plot"), "{err}");
     }
 }
