@@ -116,6 +116,8 @@ fn accuracy_quick() {
             "1,16",
             "--image-pathtrace",
             "4,16",
+            "--image-mitsuba",
+            "0",
             "--out",
             "a",
             "-q",
@@ -227,6 +229,94 @@ fn accuracy_quick() {
         err.contains("--only") && err.contains("`approx rays=33`") && err.contains("`approx rays=32`"),
         "{err}"
     );
+}
+
+/// Issue #33: Mitsuba 3 as a second path-tracing baseline. `bench mitsuba` exports the
+/// scene as loaded (the embedded Cornell box: its 36 triangles inside the box, the spot
+/// light, the camera) on any machine. Without Mitsuba the image front leaves its rows out
+/// with a note, and `bench mitsuba --spp` is an error that names the interpreter it tried.
+#[test]
+fn mitsuba_export_and_its_absence() {
+    let dir = common::tmpdir();
+    meshrad(&["bench", "mitsuba", "--out", "m"], dir.path());
+    let m = dir.path().join("m");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(m.join("scene.json")).unwrap()).unwrap();
+    let mats = json["materials"].as_array().unwrap();
+    let mut tris = 0;
+    for mat in mats {
+        let n = mat["triangles"].as_u64().unwrap() as usize;
+        tris += n;
+        let floats =
+            9 * n * (1 + mat["normals"].as_bool().unwrap() as usize) + 6 * n * mat["uvs"].as_bool().unwrap() as usize;
+        let bytes = std::fs::read(m.join(mat["file"].as_str().unwrap())).unwrap();
+        assert_eq!(bytes.len(), 4 * floats, "{mat}");
+        for v in bytes.chunks_exact(4).take(9 * n) {
+            let x = f32::from_le_bytes(v.try_into().unwrap());
+            assert!((-1.0..=560.0).contains(&x), "{x} outside the box");
+        }
+    }
+    assert_eq!(tris, 36, "{json}");
+    let spot = &json["lights"][0];
+    assert_eq!(spot["type"], "spot");
+    let near = |v: &serde_json::Value, want: f64| (v.as_f64().unwrap() - want).abs() < 1e-3 * want.abs().max(1.0);
+    assert!(
+        near(&spot["cutoff_angle"], 60.0) && near(&spot["beam_width"], 45.0),
+        "{spot}"
+    );
+    assert!(
+        near(&spot["intensity"][0], 300000.0) && near(&spot["direction"][1], -1.0),
+        "{spot}"
+    );
+    let cam = &json["camera"];
+    assert!(
+        near(&cam["fov"], 39.3077) && cam["width"] == 256 && cam["filter"] == "box",
+        "{cam}"
+    );
+    assert!(m.join("mitsuba_render.py").is_file() && m.join("points.py").is_file());
+
+    let without = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_meshrad"))
+            .args(args)
+            .current_dir(dir.path())
+            .env("MESHRAD_PYTHON", "/nonexistent/python3")
+            .output()
+            .unwrap()
+    };
+    let o = without(&["bench", "mitsuba", "--out", "m", "--spp", "4"]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("Mitsuba 3 is needed") && err.contains("/nonexistent/python3"),
+        "{err}"
+    );
+    let o = without(&[
+        "bench",
+        "accuracy",
+        "--images-only",
+        "--backend",
+        "cpu",
+        "--image-reference",
+        "4",
+        "--image-spp",
+        "1",
+        "--image-pathtrace",
+        "1",
+        "--image-mitsuba",
+        "4",
+        "--out",
+        "f",
+        "-q",
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(
+        err.contains("leaves Mitsuba 3 out") && err.contains("/nonexistent/python3"),
+        "{err}"
+    );
+    let front = std::fs::read_to_string(dir.path().join("f/image-front.csv")).unwrap();
+    assert_eq!(front.lines().count(), 1 + 2, "{front}");
+    assert!(!front.contains("mitsuba"), "{front}");
 }
 
 #[test]

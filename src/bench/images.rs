@@ -1,8 +1,9 @@
 //! `meshrad bench accuracy`'s image front (issue #33): the camera image's error against a
 //! converged reference image, over all pixels (edges included) and away from edges,
 //! against its end-to-end time, for meshrad at increasing samples per pixel on each
-//! backend and for path tracing at increasing paths per pixel on the same machine (the
-//! project's reference renderer). The reference is two independent path-traced images
+//! backend and for path tracing at increasing paths per pixel on the same machine: the
+//! project's reference renderer, and Mitsuba 3 where it is installed ([`super::mitsuba`]).
+//! The reference is two independent path-traced images
 //! (seeds 1 and 2, cached in the output folder); their difference takes the reference's
 //! own noise out of each error ([`crate::metrics::image_error`]).
 
@@ -32,13 +33,15 @@ pub struct ImageOptions {
     pub spp: Vec<u32>,
     /// Path tracing's paths per pixel (the baseline).
     pub pathtrace: Vec<u32>,
+    /// Mitsuba 3's paths per pixel (where it is installed; empty: none).
+    pub mitsuba: Vec<u32>,
 }
 
 /// One point of the image front.
 #[derive(Clone, Debug, Serialize)]
 pub struct ImageRow {
     pub scene: String,
-    /// `meshrad` or `pathtrace`.
+    /// `meshrad`, `pathtrace` (this project's reference renderer) or `mitsuba`.
     pub method: String,
     pub backend: String,
     /// Samples (meshrad) or paths (path tracing) per pixel.
@@ -50,7 +53,7 @@ pub struct ImageRow {
     pub seconds_image: f64,
     /// The total image's error.
     pub total: ImageError,
-    /// The indirect image's error.
+    /// The indirect image's error (not measured for Mitsuba: NaN).
     pub indirect: ImageError,
     pub pareto: bool,
 }
@@ -177,6 +180,43 @@ pub fn front(
             pareto: false,
         });
     }
+    if !opts.mitsuba.is_empty() {
+        let left_out = |why: String| eprintln!("{name}: the image front leaves Mitsuba 3 out: {why}");
+        match super::mitsuba::available() {
+            Err(why) => left_out(why),
+            Ok(version) => {
+                let mdir = dir.join(format!("{name}-mitsuba"));
+                match super::mitsuba::export(scene, &mdir) {
+                    Err(e) => left_out(e.to_string()),
+                    Ok(()) => {
+                        for &paths in &opts.mitsuba {
+                            progress.stage(&format!("{name}: image front, Mitsuba 3 {paths} paths a pixel"));
+                            let (px, seconds) =
+                                super::mitsuba::render(&mdir, paths, 0xba5e + paths, w as u32, h as u32)?;
+                            let total = image_error(&px, &ta, &tb, w, h);
+                            let indirect = ImageError {
+                                all: f64::NAN,
+                                smooth: f64::NAN,
+                                energy: f64::NAN,
+                                ..total
+                            };
+                            rows.push(ImageRow {
+                                scene: name.into(),
+                                method: "mitsuba".into(),
+                                backend: format!("cpu (Mitsuba {version}, llvm_ad_rgb)"),
+                                spp: paths,
+                                seconds,
+                                seconds_image: seconds,
+                                total,
+                                indirect,
+                                pareto: false,
+                            });
+                        }
+                    }
+                }
+            }
+        }
+    }
     let snapshot: Vec<(f64, f64)> = rows.iter().map(|r| (r.seconds, r.total.all)).collect();
     for r in rows.iter_mut() {
         r.pareto = !snapshot
@@ -186,12 +226,13 @@ pub fn front(
     Ok(rows)
 }
 
-/// Path tracing's time to reach `error` (total image, all pixels), interpolated in
-/// log-log between the two path-tracing rows around it (`None` outside their range).
-pub fn pathtrace_time_at(rows: &[ImageRow], scene: &str, error: f64) -> Option<f64> {
+/// A path tracer's (`method`: `pathtrace` or `mitsuba`) time to reach `error` (total
+/// image, all pixels), interpolated in log-log between its two rows around it (`None`
+/// outside their range).
+pub fn pathtrace_time_at(rows: &[ImageRow], scene: &str, method: &str, error: f64) -> Option<f64> {
     let mut pt: Vec<(f64, f64)> = rows
         .iter()
-        .filter(|r| r.scene == scene && r.method == "pathtrace" && r.total.all > 0.0)
+        .filter(|r| r.scene == scene && r.method == method && r.total.all > 0.0)
         .map(|r| (r.total.all, r.seconds))
         .collect();
     pt.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -239,31 +280,37 @@ pub fn csv(rows: &[ImageRow]) -> String {
 /// meshrad row the time path tracing takes to reach its error over all pixels.
 pub fn summary(rows: &[ImageRow]) -> String {
     let mut s = String::from(
-        "| scene | method | backend | spp | total: all / smooth | indirect: all / smooth | end to end | image | path tracing at equal error (all pixels) |\n\
-         |---|---|---|---|---|---|---|---|---|\n",
+        "| scene | method | backend | spp | total: all / smooth | indirect: all / smooth | end to end | image | path tracing at equal error (all pixels) | Mitsuba 3 at equal error |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
-        let equal = if r.method == "meshrad" {
-            match pathtrace_time_at(rows, &r.scene, r.total.all) {
-                Some(t) => format!("{t:.2} s ({:.1}×)", t / r.seconds),
-                None => "outside the path-tracing rows".into(),
+        let equal = |method: &str| {
+            if r.method != "meshrad" || !rows.iter().any(|o| o.scene == r.scene && o.method == method) {
+                return String::new();
             }
+            match pathtrace_time_at(rows, &r.scene, method, r.total.all) {
+                Some(t) => format!("{t:.2} s ({:.1}×)", t / r.seconds),
+                None => "outside its rows".into(),
+            }
+        };
+        let indirect = if r.indirect.all.is_nan() {
+            "–".to_string()
         } else {
-            String::new()
+            format!("{:.2} / {:.2} %", r.indirect.all * 100.0, r.indirect.smooth * 100.0)
         };
         let _ = writeln!(
             s,
-            "| {} | {} | {} | {} | {:.2} / {:.2} % | {:.2} / {:.2} % | {:.2} s | {:.2} s | {equal} |",
+            "| {} | {} | {} | {} | {:.2} / {:.2} % | {indirect} | {:.2} s | {:.2} s | {} | {} |",
             r.scene,
             r.method,
             r.backend,
             r.spp,
             r.total.all * 100.0,
             r.total.smooth * 100.0,
-            r.indirect.all * 100.0,
-            r.indirect.smooth * 100.0,
             r.seconds,
-            r.seconds_image
+            r.seconds_image,
+            equal("pathtrace"),
+            equal("mitsuba")
         );
     }
     if let Some(r) = rows.first() {
@@ -289,7 +336,7 @@ pub fn write(rows: &[ImageRow], dir: &Path) -> Result<()> {
         keys.dedup();
         let mut v = Vec::new();
         for (scene, backend) in keys {
-            for method in ["meshrad", "pathtrace"] {
+            for method in ["meshrad", "pathtrace", "mitsuba"] {
                 let pts: Vec<(f64, f64)> = rows
                     .iter()
                     .filter(|r| r.scene == scene && r.backend == backend && r.method == method)

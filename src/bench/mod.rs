@@ -6,6 +6,7 @@
 pub mod accuracy;
 pub mod edit_vs_fresh;
 pub mod images;
+pub mod mitsuba;
 pub mod plot;
 pub mod table2;
 

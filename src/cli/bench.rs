@@ -38,6 +38,26 @@ pub enum BenchCommand {
     /// above 1 % of its mean, and the largest pixel difference relative to the reference's
     /// mean; exit 1 above `--tolerance` (the device check's GPU-against-CPU test).
     Compare(CompareArgs),
+    /// The scene exported for Mitsuba 3 (its triangles, materials, lights, constant sky and
+    /// camera, as this project loaded them) and, with `--spp`, its camera image rendered by
+    /// Mitsuba's path tracer (`image.exr`): an independent reference, where `python3 -c
+    /// 'import mitsuba'` works. `points.py` in the export renders irradiance at probe points.
+    Mitsuba(MitsubaArgs),
+}
+
+#[derive(Args, Debug)]
+pub struct MitsubaArgs {
+    /// Scene file (default: the embedded Cornell box).
+    scene: Option<PathBuf>,
+    /// The export's folder (`scene.json`, meshes, texels, the scripts; `image.exr`).
+    #[arg(long, default_value = "bench-mitsuba")]
+    out: PathBuf,
+    /// Paths per pixel of the camera image (0: the export alone).
+    #[arg(long, default_value_t = 0)]
+    spp: u32,
+    /// The image's seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u32,
 }
 
 #[derive(Args, Debug)]
@@ -160,6 +180,11 @@ pub struct AccuracyArgs {
     /// reference renderer on this machine's cores).
     #[arg(long, value_delimiter = ',', default_value = "4,16,64,256,1024")]
     image_pathtrace: Vec<u32>,
+    /// Mitsuba 3's paths per pixel on the image front (comma-separated; 0: none), where
+    /// `python3 -c 'import mitsuba'` works (`$MESHRAD_PYTHON` names another interpreter)
+    /// and its `llvm_ad_rgb` variant loads; otherwise its rows are left out with a note.
+    #[arg(long, value_delimiter = ',', default_value = "4,16,64,256,1024")]
+    image_mitsuba: Vec<u32>,
     /// Only the image front (no probe points).
     #[arg(long)]
     images_only: bool,
@@ -223,7 +248,39 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         BenchCommand::Nodes(a) => run_nodes(a),
         BenchCommand::Edit(a) => run_edit(a),
         BenchCommand::Compare(a) => run_compare(a),
+        BenchCommand::Mitsuba(a) => run_mitsuba(a),
     }
+}
+
+fn run_mitsuba(a: MitsubaArgs) -> Result<()> {
+    let (scene, _) = match &a.scene {
+        Some(p) => Scene::load(p, &[])?,
+        None => Scene::embedded_cornell(&[])?,
+    };
+    crate::bench::mitsuba::export(&scene, &a.out)?;
+    println!(
+        "wrote the Mitsuba 3 export of {} in {}",
+        scene.path.display(),
+        a.out.display()
+    );
+    if a.spp == 0 {
+        return Ok(());
+    }
+    if a.spp > crate::scene::camera::MAX_SPP {
+        anyhow::bail!("--spp: {} is outside 0..={}", a.spp, crate::scene::camera::MAX_SPP);
+    }
+    let version = crate::bench::mitsuba::available().map_err(|why| anyhow::anyhow!("Mitsuba 3 is needed: {why}"))?;
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let (px, seconds) = crate::bench::mitsuba::render(&a.out, a.spp, a.seed, w, h)?;
+    let mut out = output::Outputs::default();
+    output::image::encode_pair(&a.out, "image", w, h, &px, 0.0, &mut out)?;
+    out.commit()?;
+    println!(
+        "Mitsuba {version}: {w}×{h} at {} paths a pixel in {seconds:.2} s: {}",
+        a.spp,
+        a.out.join("image.exr").display()
+    );
+    Ok(())
 }
 
 fn run_compare(a: CompareArgs) -> Result<()> {
@@ -297,7 +354,12 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
     if a.images_only && a.image_reference == 0 {
         anyhow::bail!("--images-only needs an image front: --image-reference above 0");
     }
-    for (key, list) in [("--image-spp", &a.image_spp), ("--image-pathtrace", &a.image_pathtrace)] {
+    let mitsuba: Vec<u32> = a.image_mitsuba.iter().copied().filter(|&n| n > 0).collect();
+    for (key, list) in [
+        ("--image-spp", &a.image_spp),
+        ("--image-pathtrace", &a.image_pathtrace),
+        ("--image-mitsuba", &mitsuba),
+    ] {
         if let Some(bad) = list.iter().find(|&&n| n == 0 || n > crate::scene::camera::MAX_SPP) {
             anyhow::bail!("{key}: {bad} is outside 1..={}", crate::scene::camera::MAX_SPP);
         }
@@ -316,6 +378,7 @@ fn run_accuracy(a: AccuracyArgs) -> Result<()> {
                 reference_samples: a.image_reference,
                 spp: a.image_spp.clone(),
                 pathtrace: a.image_pathtrace.clone(),
+                mitsuba: mitsuba.clone(),
             };
             fronts.extend(images::front(
                 &name, &scene, &params, &backends, &io, &a.out, &progress,
