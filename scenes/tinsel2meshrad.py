@@ -73,6 +73,10 @@ def main():
         if not os.path.isfile(path) or os.path.getsize(path) == 0:
             note(f"left out {kv['file'][0]}: no such file, or empty")
             continue
+        with open(path, "rb") as f:
+            if f.read(40).startswith(b"version https://git-lfs"):
+                note(f"left out {kv['file'][0]}: a Git LFS pointer, not the mesh (fetch it with `git lfs pull`)")
+                continue
         obj.append(f"o {os.path.splitext(os.path.basename(path))[0]}")
         obj.append(f"usemtl {mat}")
         if mat not in used:
@@ -151,6 +155,8 @@ def main():
                  "position = [" + ", ".join(f"{x:g}" for x in vec(cam, "position")) + "]",
                  "target = [" + ", ".join(f"{x:g}" for x in vec(cam, "lookat")) + "]",
                  f"fov = {f:.4g}", f"width = {round(w * sc)}", f"height = {round(h * sc)}", ""]
+    if not used:
+        sys.exit(f"tinsel2meshrad: {scene_file}: no mesh could be read (see the notes above); nothing written")
     open(os.path.join(out_dir, f"{name}.obj"), "w").write("\n".join(obj) + "\n")
     open(os.path.join(out_dir, f"{name}.mtl"), "w").write("\n".join(mtl) + "\n")
     open(os.path.join(out_dir, f"{name}.toml"), "w").write("\n".join(toml))
