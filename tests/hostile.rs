@@ -892,6 +892,94 @@ fn a_box_around_the_scene_is_named_when_everything_is_black() {
     // A lit scene says nothing.
     let (code, err) = Dir::default_scene().solve(&[]);
     assert!(code == 0 && !err.contains("warning"), "{err}");
+
+    // The same file as one object: the warning names the group that encloses the rest,
+    // and leaving that group out as it says lets the light in.
+    let camera_light =
+        "[[light]]\ntype = \"directional\"\ndirection = [0.1, -1.0, 0.2]\nirradiance = [1.0, 1.0, 1.0]\n\n\
+                        [camera]\nposition = [0.0, 0.0, 0.0]\ntarget = [0.0, 0.0, 5.0]\nwidth = 16\nheight = 16\n";
+    let one = Dir::new(
+        &format!("[[object]]\nmesh = \"m.obj\"\n\n{camera_light}\n{FAST}"),
+        obj,
+        MTL,
+    );
+    let (code, err) = one.solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("warning: no light reaches what the camera sees"), "{err}");
+    assert!(
+        err.contains("`outer`, a glTF node or OBJ group of object 0 (`object0`), encloses the rest")
+            && err.contains("group = \"!outer\""),
+        "{err}"
+    );
+    one.write(
+        "s.toml",
+        &format!("[[object]]\nmesh = \"m.obj\"\ngroup = \"!outer\"\n\n{camera_light}\n{FAST}"),
+    );
+    let (code, err) = one.solve(&[]);
+    assert!(code == 0 && !err.contains("warning"), "{err}");
+
+    // A glTF with a named skybox node around a named statue node, loaded as one object.
+    let cube: Vec<f32> = [
+        [0, 1, 2],
+        [0, 2, 3],
+        [4, 6, 5],
+        [4, 7, 6],
+        [0, 4, 5],
+        [0, 5, 1],
+        [3, 2, 6],
+        [3, 6, 7],
+        [0, 3, 7],
+        [0, 7, 4],
+        [1, 5, 6],
+        [1, 6, 2],
+    ]
+    .iter()
+    .flat_map(|f| {
+        f.map(|i: usize| {
+            let c = [
+                [-10., -10., -10.],
+                [10., -10., -10.],
+                [10., 10., -10.],
+                [-10., 10., -10.],
+                [-10., -10., 10.],
+                [10., -10., 10.],
+                [10., 10., 10.],
+                [-10., 10., 10.],
+            ];
+            c[i]
+        })
+    })
+    .flatten()
+    .map(|x: f64| x as f32)
+    .collect();
+    let mut doc = common::gltf::one_mesh(&cube, [0.5, 0.5, 0.5]);
+    doc.json["nodes"][0]["name"] = serde_json::json!("Skybox");
+    let quad = doc.floats(
+        &[
+            -1., -1., 5., 1., -1., 5., 1., 1., 5., -1., -1., 5., 1., 1., 5., -1., 1., 5.,
+        ],
+        "VEC3",
+    );
+    let mesh = doc.push(
+        "meshes",
+        serde_json::json!({"primitives": [{"attributes": {"POSITION": quad}, "material": 0}]}),
+    );
+    let node = doc.push("nodes", serde_json::json!({"mesh": mesh, "name": "Statue"}));
+    doc.json["scenes"][0]["nodes"]
+        .as_array_mut()
+        .unwrap()
+        .push(serde_json::json!(node));
+    doc.write(one.path("").as_path(), "city", common::gltf::Layout::Binary);
+    one.write(
+        "s.toml",
+        &format!("[[object]]\nname = \"city\"\nmesh = \"city.glb\"\n\n{camera_light}\n{FAST}"),
+    );
+    let (code, err) = one.solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("`Skybox`, a glTF node or OBJ group of object 0 (`city`), encloses the rest"),
+        "{err}"
+    );
 }
 
 /// Issue #35: a small image file that decodes to many pixels is sized from its header and

@@ -34,8 +34,8 @@ pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Image
     } else if dark_image {
         out.push("no light reaches what the camera sees: every pixel is black".into());
     }
-    if (total == 0 || dark_image) && scene.objects.len() > 1 {
-        if let Some(e) = enclosing(scene, &lit) {
+    if total == 0 || dark_image {
+        if let Some(e) = (scene.objects.len() > 1).then(|| enclosing(scene, &lit)).flatten() {
             let o = &scene.objects[e];
             out.push(format!(
                 "object {e} (`{}`) encloses the others, and the light reaches only its outside: a box or skybox \
@@ -43,9 +43,62 @@ pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Image
                  for a glTF node or OBJ group inside it) or give it no faces toward the light",
                 o.name
             ));
+        } else if let Some((e, part)) = enclosing_part(scene, &lit) {
+            out.push(format!(
+                "`{part}`, a glTF node or OBJ group of object {e} (`{}`), encloses the rest of the scene, and the light \
+                 reaches only its outside: a box or skybox around the scene keeps the lights and the sky out; leave it \
+                 out (`group = \"!{part}\"` in that [[object]]) or give it no faces toward the light",
+                scene.objects[e].name
+            ));
         }
     }
     out
+}
+
+/// A named part (OBJ group, glTF node) of an object, the only object with lit nodes if
+/// any is lit, whose world box holds every other part's and every other object's: the
+/// object and the part's name.
+fn enclosing_part(scene: &Scene, lit: &[usize]) -> Option<(usize, String)> {
+    let lit_objects: Vec<usize> = (0..lit.len()).filter(|&o| lit[o] > 0).collect();
+    if lit_objects.len() > 1 {
+        return None;
+    }
+    // Every part's world box, with its object; objects without parts count whole.
+    let mut boxes: Vec<(usize, Option<&str>, Vec3, Vec3)> = Vec::new();
+    for (o, obj) in scene.objects.iter().enumerate() {
+        if obj.parts.is_empty() {
+            let (lo, hi) = object_box(obj, &scene.tris);
+            boxes.push((o, None, lo, hi));
+        }
+        for p in &obj.parts {
+            let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+            for k in 0..8 {
+                let c = Vec3::new(
+                    if k & 1 == 0 { p.lo.x } else { p.hi.x },
+                    if k & 2 == 0 { p.lo.y } else { p.hi.y },
+                    if k & 4 == 0 { p.lo.z } else { p.hi.z },
+                );
+                let w = crate::geom::transform::xform_point(&obj.to_world, c);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+            boxes.push((o, Some(&p.name), lo, hi));
+        }
+    }
+    if boxes.len() < 2 {
+        return None;
+    }
+    boxes.iter().enumerate().find_map(|(i, &(o, name, lo, hi))| {
+        let name = name?;
+        if lit_objects.first().is_some_and(|&l| l != o) {
+            return None;
+        }
+        let holds = boxes
+            .iter()
+            .enumerate()
+            .all(|(j, &(_, _, a, b))| j == i || (a.cmpge(lo).all() && b.cmple(hi).all()));
+        holds.then(|| (o, name.to_string()))
+    })
 }
 
 /// The one object whose nodes alone are lit and whose box holds every other object's.

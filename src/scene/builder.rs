@@ -103,6 +103,7 @@ impl Builder {
             tri_count: mesh.tris.len() as u32,
             bvh_root: node_offset,
             area,
+            parts: std::mem::take(&mut mesh.parts),
         });
         let n = mesh.tris.len();
         self.tris.extend(mesh.tris);

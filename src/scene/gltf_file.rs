@@ -682,10 +682,12 @@ impl Walk<'_> {
                 *self.unsupported.entry("skins (meshes in their bind pose)").or_default() += 1;
             }
             if let Some(mesh) = n.mesh() {
+                let from = self.out.mesh.tris.len();
                 for p in mesh.primitives() {
                     let pat = format!("meshes[{}].primitives[{}]", mesh.index(), p.index());
                     self.primitive(&p, &m, &pat)?;
                 }
+                super::obj::add_part(&mut self.out.mesh, n.name().unwrap_or(""), from);
             }
             if let Some(l) = n.light() {
                 self.light(&l, &m, n).map_err(|e| format!("{at}: {e}"))?;

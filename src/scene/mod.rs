@@ -54,6 +54,9 @@ pub struct SceneObject {
     pub area: f64,
     /// Its materials' emission lights the scene (`[[object]] emission`, default true).
     pub emits: bool,
+    /// Its mesh file's named parts (OBJ groups, glTF nodes) with their bounds in object
+    /// space (`obj::Part`): the no-light warning names the one that encloses the rest.
+    pub parts: Vec<obj::Part>,
 }
 
 impl SceneObject {

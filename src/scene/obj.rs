@@ -106,6 +106,45 @@ pub struct LoadedMesh {
     pub notes: Vec<String>,
     /// The files read: the OBJ and its material libraries.
     pub inputs: Vec<PathBuf>,
+    /// The named parts (OBJ `o`/`g` groups, glTF nodes) and their bounds, in the file's
+    /// space: what `group` can name, for the warning that names the part enclosing the
+    /// scene.
+    pub parts: Vec<Part>,
+}
+
+/// A named part of a mesh file (an OBJ group, a glTF node) and the bounds of its kept
+/// triangles, in the file's space.
+#[derive(Clone, Debug)]
+pub struct Part {
+    pub name: String,
+    pub lo: Vec3,
+    pub hi: Vec3,
+}
+
+/// Adds the triangles `from..` of `out` to the part `name` (merged with an earlier part of
+/// that name); nothing for an unnamed part or no triangles.
+pub fn add_part(out: &mut LoadedMesh, name: &str, from: usize) {
+    if name.is_empty() || from >= out.tris.len() {
+        return;
+    }
+    let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    for t in &out.tris[from..] {
+        for v in [t.v0, t.v1, t.v2] {
+            lo = lo.min(Vec3::from(v));
+            hi = hi.max(Vec3::from(v));
+        }
+    }
+    match out.parts.iter_mut().find(|p| p.name == name) {
+        Some(p) => {
+            p.lo = p.lo.min(lo);
+            p.hi = p.hi.max(hi);
+        }
+        None => out.parts.push(Part {
+            name: name.to_string(),
+            lo,
+            hi,
+        }),
+    }
 }
 
 /// The alpha below which a cutout lets rays through (MTL `d`/`map_d`, glTF BLEND; glTF
@@ -312,11 +351,33 @@ fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
     let mut any_uv = false;
     let mut any_normal = false;
     for model in models {
+        let from = out.tris.len();
+        add_model(model, out, &mut seen, default_material, &mut any_uv, &mut any_normal);
+        add_part(out, &model.name, from);
+    }
+    if !any_uv {
+        out.uvs.clear();
+    }
+    if !any_normal {
+        out.normals.clear();
+    }
+}
+
+/// One tobj model's triangles, as [`add_triangles`] adds them.
+fn add_model(
+    model: &tobj::Model,
+    out: &mut LoadedMesh,
+    seen: &mut std::collections::HashSet<[[u32; 3]; 3]>,
+    default_material: u32,
+    any_uv: &mut bool,
+    any_normal: &mut bool,
+) {
+    {
         let m = &model.mesh;
         let has_uv = !m.texcoords.is_empty() && m.texcoord_indices.len() == m.indices.len();
-        any_uv |= has_uv;
+        *any_uv |= has_uv;
         let has_normal = !m.normals.is_empty() && m.normal_indices.len() == m.indices.len();
-        any_normal |= has_normal;
+        *any_normal |= has_normal;
         let material = match m.material_id {
             Some(id) if id < out.materials.len() => id as u32,
             _ => {
@@ -340,7 +401,7 @@ fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
                 material,
                 ..Default::default()
             };
-            if !keep(&tri, &mut seen, out) {
+            if !keep(&tri, seen, out) {
                 continue;
             }
             out.tris.push(tri);
@@ -363,12 +424,6 @@ fn add_triangles(models: &[tobj::Model], out: &mut LoadedMesh) {
             }
             out.normals.push(nc);
         }
-    }
-    if !any_uv {
-        out.uvs.clear();
-    }
-    if !any_normal {
-        out.normals.clear();
     }
 }
 
