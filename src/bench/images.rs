@@ -168,53 +168,20 @@ pub fn front(
         let img = image::reference_image(scene, &o, &hidden);
         let seconds = t.elapsed().as_secs_f64();
         let (total, indirect) = errors(&img);
-        rows.push(ImageRow {
-            scene: name.into(),
-            method: "pathtrace".into(),
-            backend: "cpu".into(),
-            spp: paths,
+        rows.push(path_tracer_row(
+            name,
+            "pathtrace",
+            "cpu",
+            paths,
             seconds,
-            seconds_image: seconds,
             total,
             indirect,
-            pareto: false,
-        });
+        ));
     }
     if !opts.mitsuba.is_empty() {
-        let left_out = |why: String| eprintln!("{name}: the image front leaves Mitsuba 3 out: {why}");
-        match super::mitsuba::available() {
-            Err(why) => left_out(why),
-            Ok(version) => {
-                let mdir = dir.join(format!("{name}-mitsuba"));
-                match super::mitsuba::export(scene, &mdir) {
-                    Err(e) => left_out(e.to_string()),
-                    Ok(()) => {
-                        for &paths in &opts.mitsuba {
-                            progress.stage(&format!("{name}: image front, Mitsuba 3 {paths} paths a pixel"));
-                            let (px, seconds) =
-                                super::mitsuba::render(&mdir, paths, 0xba5e + paths, w as u32, h as u32)?;
-                            let total = image_error(&px, &ta, &tb, w, h);
-                            let indirect = ImageError {
-                                all: f64::NAN,
-                                smooth: f64::NAN,
-                                energy: f64::NAN,
-                                ..total
-                            };
-                            rows.push(ImageRow {
-                                scene: name.into(),
-                                method: "mitsuba".into(),
-                                backend: format!("cpu (Mitsuba {version}, llvm_ad_rgb)"),
-                                spp: paths,
-                                seconds,
-                                seconds_image: seconds,
-                                total,
-                                indirect,
-                                pareto: false,
-                            });
-                        }
-                    }
-                }
-            }
+        match mitsuba_rows(name, scene, &opts.mitsuba, dir, &ta, &tb, progress)? {
+            Ok(mut r) => rows.append(&mut r),
+            Err(why) => eprintln!("{name}: the image front leaves Mitsuba 3 out: {why}"),
         }
     }
     let snapshot: Vec<(f64, f64)> = rows.iter().map(|r| (r.seconds, r.total.all)).collect();
@@ -224,6 +191,70 @@ pub fn front(
             .any(|&(t, e)| t <= r.seconds && e <= r.total.all && (t < r.seconds || e < r.total.all));
     }
     Ok(rows)
+}
+
+/// A path tracer's row of the front: its image is its own end to end.
+fn path_tracer_row(
+    name: &str,
+    method: &str,
+    backend: &str,
+    paths: u32,
+    seconds: f64,
+    total: ImageError,
+    indirect: ImageError,
+) -> ImageRow {
+    ImageRow {
+        scene: name.into(),
+        method: method.into(),
+        backend: backend.into(),
+        spp: paths,
+        seconds,
+        seconds_image: seconds,
+        total,
+        indirect,
+        pareto: false,
+    }
+}
+
+/// Mitsuba 3's rows at `counts` paths a pixel (the scene exported into `dir`), against
+/// the references `ta` and `tb`; `Ok(Err(why))` where Mitsuba is not installed or the
+/// scene cannot be exported. Mitsuba gives the total image only: the indirect error is
+/// NaN.
+fn mitsuba_rows(
+    name: &str,
+    scene: &Scene,
+    counts: &[u32],
+    dir: &Path,
+    ta: &[Vec3],
+    tb: &[Vec3],
+    progress: &Progress,
+) -> Result<std::result::Result<Vec<ImageRow>, String>> {
+    let version = match super::mitsuba::available() {
+        Ok(v) => v,
+        Err(why) => return Ok(Err(why)),
+    };
+    let mdir = dir.join(format!("{name}-mitsuba"));
+    if let Err(e) = super::mitsuba::export(scene, &mdir) {
+        return Ok(Err(e.to_string()));
+    }
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let backend = format!("cpu (Mitsuba {version}, llvm_ad_rgb)");
+    let mut rows = Vec::new();
+    for &paths in counts {
+        progress.stage(&format!("{name}: image front, Mitsuba 3 {paths} paths a pixel"));
+        let (px, seconds) = super::mitsuba::render(&mdir, paths, 0xba5e + paths, w, h)?;
+        let total = image_error(&px, ta, tb, w as usize, h as usize);
+        let indirect = ImageError {
+            all: f64::NAN,
+            smooth: f64::NAN,
+            energy: f64::NAN,
+            ..total
+        };
+        rows.push(path_tracer_row(
+            name, "mitsuba", &backend, paths, seconds, total, indirect,
+        ));
+    }
+    Ok(Ok(rows))
 }
 
 /// A path tracer's (`method`: `pathtrace` or `mitsuba`) time to reach `error` (total
