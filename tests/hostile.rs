@@ -980,6 +980,16 @@ fn a_box_around_the_scene_is_named_when_everything_is_black() {
         err.contains("`Skybox`, a glTF node or OBJ group of object 0 (`city`), encloses the rest"),
         "{err}"
     );
+    // Unnamed, as in Khronos' VC: the node goes by the name `group` knows it by.
+    doc.json["nodes"][0].as_object_mut().unwrap().remove("name");
+    doc.write(one.path("").as_path(), "city", common::gltf::Layout::Binary);
+    let (code, err) = one.solve(&[]);
+    assert_eq!(code, 0, "{err}");
+    assert!(
+        err.contains("`nodes[0]`, a glTF node or OBJ group of object 0 (`city`), encloses the rest")
+            && err.contains("group = \"!nodes[0]\""),
+        "{err}"
+    );
 }
 
 /// Issue #35: a small image file that decodes to many pixels is sized from its header and

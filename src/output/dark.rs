@@ -9,6 +9,11 @@ use crate::hierarchy::Hierarchy;
 use crate::scene::{object_box, Scene};
 use crate::transport::Solution;
 
+/// An image whose mean is below this fraction of the lit nodes' mean direct irradiance is
+/// dark (a lit scene's is of the order of its albedo over π; VC's city inside its skybox,
+/// 3e-6).
+const DARK_IMAGE: f64 = 1e-4;
+
 /// The warnings for `sol` (and its image, when one was drawn); empty when light arrives.
 pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Images>) -> Vec<String> {
     let mut out = Vec::new();
@@ -24,7 +29,23 @@ pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Image
         })
         .collect();
     let total: usize = lit.iter().sum();
-    let dark_image = img.is_some_and(|i| i.total().iter().all(|p| p.max_element() <= 0.0));
+    // The image is dark when its mean is below `DARK_IMAGE` of the lit nodes' mean direct
+    // irradiance: a few leaks through a skybox's seams leave it all but black.
+    let lit_mean = {
+        let d = sol
+            .values
+            .direct
+            .iter()
+            .map(|v| v.truncate().max_element())
+            .filter(|&e| e > 0.0);
+        let (n, s) = d.fold((0usize, 0f64), |(n, s), e| (n + 1, s + e as f64));
+        s / n.max(1) as f64
+    };
+    let image_mean = img.map(|i| {
+        let t = i.total();
+        t.iter().map(|p| p.max_element().max(0.0) as f64).sum::<f64>() / t.len().max(1) as f64
+    });
+    let dark_image = image_mean.is_some_and(|m| m <= DARK_IMAGE * lit_mean);
     if total == 0 {
         out.push(
             "no light reaches any node: the lights, emitters and sky light nothing the solve can see (every \
@@ -32,7 +53,14 @@ pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Image
                 .into(),
         );
     } else if dark_image {
-        out.push("no light reaches what the camera sees: every pixel is black".into());
+        out.push(match image_mean {
+            Some(m) if m > 0.0 => format!(
+                "almost no light reaches what the camera sees: the image's mean is {:.1e} of the lit nodes' mean \
+                 direct irradiance (below {DARK_IMAGE:.0e})",
+                m / lit_mean
+            ),
+            _ => "no light reaches what the camera sees: every pixel is black".into(),
+        });
     }
     if total == 0 || dark_image {
         if let Some(e) = (scene.objects.len() > 1).then(|| enclosing(scene, &lit)).flatten() {

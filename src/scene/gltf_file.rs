@@ -687,7 +687,9 @@ impl Walk<'_> {
                     let pat = format!("meshes[{}].primitives[{}]", mesh.index(), p.index());
                     self.primitive(&p, &m, &pat)?;
                 }
-                super::obj::add_part(&mut self.out.mesh, n.name().unwrap_or(""), from);
+                // An unnamed node is a part by the name `group` knows it by.
+                let name = n.name().map_or_else(|| format!("nodes[{}]", n.index()), str::to_string);
+                super::obj::add_part(&mut self.out.mesh, &name, from);
             }
             if let Some(l) = n.light() {
                 self.light(&l, &m, n).map_err(|e| format!("{at}: {e}"))?;
