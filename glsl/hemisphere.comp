@@ -15,7 +15,7 @@ layout(local_size_x = LINEAR_GROUP) in;
 void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
-    uint n_rays = g.rays_per_integral;
+    uint n_rays = pc.rays;
     if (id >= batch_count() * n_rays) {
         return;
     }
@@ -29,11 +29,14 @@ void main() {
         if (r == 0u) {
             if (is_linked(s) && links_read()) {
                 atomicAdd(g.link_counters.v[LINK_LINKED], 1u);
+                atomicAdd(g.link_counters.v[LINK_LINKED_SLOTS], batch_slots());
             } else {
                 atomicAdd(g.link_counters.v[LINK_TRACED], 1u);
                 if (s == NONE) {
-                    uint slot = atomicAdd(g.link_counters.v[LINK_TAKEN], 1u);
-                    if (slot < g.link_capacity) {
+                    uint k = batch_slots();
+                    uint slot = atomicAdd(g.link_counters.v[LINK_TAKEN], k);
+                    if (slot + k <= g.link_capacity) {
+                        atomicAdd(g.link_counters.v[LINK_NODES], 1u);
                         g.link_slot.v[j] = slot | LINK_RECORDING;
                     } else {
                         atomicAdd(g.link_counters.v[LINK_TRACED_FULL], 1u);

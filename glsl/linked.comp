@@ -17,7 +17,7 @@ layout(local_size_x = LINEAR_GROUP) in;
 void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
-    uint n_rays = g.rays_per_integral;
+    uint n_rays = pc.rays;
     if (id >= batch_count() * n_rays) {
         return;
     }
@@ -26,6 +26,7 @@ void main() {
     uint s = g.link_slot.v[integral_node(g, i)];
     if (r == 0u) {
         atomicAdd(g.link_counters.v[LINK_LINKED], 1u);
+        atomicAdd(g.link_counters.v[LINK_LINKED_SLOTS], batch_slots());
     }
     g.contrib.v[id] = vec4(link_sample(g, s, r), 0.0);
 }

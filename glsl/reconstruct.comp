@@ -17,10 +17,10 @@ layout(local_size_x = LINEAR_GROUP) in;
 void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
-    if (id >= batch_count() * g.rays_per_integral) {
+    uint n_rays = pc.rays;
+    if (id >= batch_count() * n_rays) {
         return;
     }
-    uint n_rays = g.rays_per_integral;
     uint r = id % n_rays;
     uint s = links_on() ? g.link_slot.v[integral_node(g, id / n_rays)] : NONE;
     bool recording = s != NONE && (s & LINK_RECORDING) != 0u;
@@ -64,6 +64,6 @@ void main() {
     g.contrib.v[id] = vec4(c, 0.0);
     if (recording) {
         // The node's first traced gather: keep what later gathers read.
-        g.links.v[(s & ~LINK_RECORDING) * n_rays + r] = uvec4(sender, floatBitsToUint(a));
+        g.links.v[(s & ~LINK_RECORDING) * g.rays_per_integral + r] = uvec4(sender, floatBitsToUint(a));
     }
 }

@@ -19,7 +19,7 @@ void main() {
         return;
     }
     GlobalsRef g = pc.g;
-    uint n_rays = g.rays_per_integral;
+    uint n_rays = pc.rays;
     uint base = i * n_rays;
     Vec4Ref contrib = g.contrib;
     vec3 shift = contrib.v[base].xyz;

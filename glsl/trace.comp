@@ -10,10 +10,10 @@ layout(local_size_x = LINEAR_GROUP) in;
 void main() {
     uint id = linear_id();
     GlobalsRef g = pc.g;
-    if (id >= batch_count() * g.rays_per_integral) {
+    if (id >= batch_count() * pc.rays) {
         return;
     }
-    if (links_read() && is_linked(g.link_slot.v[integral_node(g, id / g.rays_per_integral)])) {
+    if (links_read() && is_linked(g.link_slot.v[integral_node(g, id / pc.rays)])) {
         return;
     }
     Ray ray = g.rays.v[id];

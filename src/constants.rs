@@ -59,13 +59,17 @@ pub const DISPATCH_PER_BATCH: u32 = 6;
 /// its slot with `LINK_RECORDING` set while its first traced gather records the links
 /// (cleared by `reduce`: from then on its gathers read them). The `link_counters` buffer
 /// (u32 slots): slots handed out, integrals read from links, integrals traced that read
-/// the sender level, and of those the ones that found no slot free.
+/// the sender level, and of those the ones that found no slot free; nodes given slots,
+/// and the slots the linked integrals read. A slot holds `rays_per_integral` links; a
+/// level-1 node takes `level1_rays` consecutive slots.
 pub const LINK_RECORDING: u32 = 0x8000_0000;
 pub const LINK_TAKEN: u32 = 0;
 pub const LINK_LINKED: u32 = 1;
 pub const LINK_TRACED: u32 = 2;
 pub const LINK_TRACED_FULL: u32 = 3;
-pub const LINK_COUNTERS: u32 = 4;
+pub const LINK_NODES: u32 = 4;
+pub const LINK_LINKED_SLOTS: u32 = 5;
+pub const LINK_COUNTERS: u32 = 6;
 /// Threads of the one workgroup of the `energy` kernel (a power of two).
 pub const ENERGY_GROUP: u32 = 256;
 /// Stack entries of the GPU's CWBVH traversal; the CWBVH builder keeps within it.

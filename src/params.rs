@@ -107,6 +107,11 @@ pub struct SolverParams {
     /// node count k-fold, the solve takes `rays / k`, rounded up to a multiple of 32 and
     /// at least 32 (`Hierarchy::gather_params`, stats.json `solve.rays_per_integral`).
     pub rays: u32,
+    /// Level 1's integrals take `level1_rays` times `rays` (`ALGORITHM.md` §5.2): level 1
+    /// is the finest level gathered in full in every bounce, and every region the oracle
+    /// does not refine inherits its values by pull-down, so its Monte Carlo noise is what
+    /// the image shows away from edges. 1: the paper's one count.
+    pub level1_rays: u32,
     /// The most bounces `K` of indirect light; the loop stops earlier once the un-shot
     /// energy falls below `stop_threshold`.
     pub bounces: u32,
@@ -232,6 +237,7 @@ impl Default for SolverParams {
             coarsest: 226,
             free_path: 1.0,
             rays: 512,
+            level1_rays: 8,
             bounces: 100,
             variant: Variant::Approx,
             seed: 0,
@@ -273,6 +279,20 @@ impl Default for SolverParams {
 }
 
 impl SolverParams {
+    /// Rays of an integral on `level`: `rays`, times `level1_rays` on level 1.
+    pub fn rays_at(&self, level: u32) -> u32 {
+        if level == 1 {
+            self.rays * self.level1_rays
+        } else {
+            self.rays
+        }
+    }
+
+    /// The most rays of any integral (the Halton table's length).
+    pub fn max_rays(&self) -> u32 {
+        self.rays * self.level1_rays
+    }
+
     /// `G`: the levels that may be gathered.
     pub fn gather_levels(&self) -> u32 {
         self.gather_levels.unwrap_or(self.levels)
@@ -316,6 +336,13 @@ impl SolverParams {
         range("levels", self.levels, 1, MAX_LEVELS)?;
         range("coarsest", self.coarsest, 1, 10_000_000)?;
         range("rays", self.rays, 1, 1 << 16)?;
+        range("level1_rays", self.level1_rays, 1, 64)?;
+        range(
+            "rays × level1_rays",
+            self.rays.saturating_mul(self.level1_rays),
+            1,
+            1 << 20,
+        )?;
         range("bounces", self.bounces, 0, 10_000)?;
         range("sender_level", self.sender_level, 0, self.levels - 1)?;
         range("gather_levels", self.gather_levels(), 1, self.levels)?;

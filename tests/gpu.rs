@@ -535,7 +535,7 @@ fn links_give_the_traced_answer_with(exact_first_bounce: bool) {
         common::check_link_counts(&l, mib, full, 64, (16, 16));
         assert_eq!(
             st.rays_traced,
-            st.rays_gathered - l.integrals_linked * 64,
+            st.rays_gathered - l.rays_linked,
             "rays traced: the linked integrals cast none"
         );
     }

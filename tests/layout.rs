@@ -344,7 +344,9 @@ fn gpu_struct_offsets_match_the_host_structs() {
         batch_first,
         from_list,
         count_slot,
-        exact_direct
+        exact_direct,
+        rays,
+        pad0
     );
     println!("LAYOUT {checked} members checked against the SPIR-V of every kernel");
 }

@@ -13,7 +13,14 @@ layout(push_constant) uniform GatherPush {
     uint from_list;   // 1: integral i is node active_list[batch_first + i]; 2: linked_list[...]; 0: node first + batch_first + i
     uint count_slot;  // NONE, or the counter holding the level's active count (device-sized batches)
     uint exact_direct; // 1: reconstruct reads the exact direct irradiance at the hits
+    uint rays;        // rays per integral of this batch (level 1: level1_rays times g.rays_per_integral)
+    uint pad0;
 } pc;
+
+// Link slots an integral of this batch takes (a slot holds g.rays_per_integral links).
+uint batch_slots() {
+    return pc.rays / pc.g.rays_per_integral;
+}
 
 // Integrals in this batch: `count`, or, for a device-sized batch, what the level's
 // active count (a counter written on the device) leaves from `batch_first`, at most

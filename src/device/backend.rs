@@ -16,8 +16,8 @@ use super::resources::{cwbvh_of, Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYT
 use super::schedule::{Active, Schedule};
 use crate::constants::{
     BVH_BVH2, BVH_CWBVH, COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_LINKED, COUNTER_REFINED, ENERGY_DIRECT,
-    ENERGY_UNSHOT, LIGHT_COUNTERS, LINK_COUNTERS, LINK_LINKED, LINK_TAKEN, LINK_TRACED, LINK_TRACED_FULL,
-    VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
+    ENERGY_UNSHOT, LIGHT_COUNTERS, LINK_COUNTERS, LINK_LINKED, LINK_LINKED_SLOTS, LINK_NODES, LINK_TAKEN, LINK_TRACED,
+    LINK_TRACED_FULL, VARIANT_APPROX, VARIANT_MODIFIED, VARIANT_ORIGINAL,
 };
 use crate::error::{Error, Result};
 use crate::gpu::context::Context;
@@ -328,10 +328,13 @@ impl<'a> GpuBackend<'a> {
     /// (the exact first bounce records them too).
     fn linked_levels(&self) -> u32 {
         let levels = self.p.gather_levels().min(2);
-        let nodes = self.h.level_start[levels as usize] as u64;
+        // Their slots: one a node, `level1_rays` a node of level 1.
+        let slots = (0..levels)
+            .map(|l| self.h.level_range(l as usize).len() as u64 * self.p.rays_at(l) as u64 / self.p.rays as u64)
+            .sum::<u64>();
         // `linked` is built for the variant that keeps links (as `Schedule::splits` asks).
         let links = self.k.linked.is_some() && self.res.state.link_capacity > 0;
-        if links && self.bounces_done >= 1 && nodes <= self.res.state.link_capacity as u64 {
+        if links && self.bounces_done >= 1 && slots <= self.res.state.link_capacity as u64 {
             levels
         } else {
             0
@@ -348,6 +351,7 @@ impl<'a> GpuBackend<'a> {
             h: self.h,
             batch: self.batch,
             rays: self.p.rays,
+            level1: self.p.level1_rays,
             delta: self.p.variant.is_delta(),
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
             reset_links: !self.keep_links,
@@ -551,13 +555,15 @@ impl Backend for GpuBackend<'_> {
             _ => [0; LINK_COUNTERS as usize],
         };
         let count = |i: u32| (c[i as usize] - base[i as usize]) as u64;
-        let nodes = (c[LINK_TAKEN as usize].min(st.link_capacity)) as u64;
-        let per_node = self.p.rays as u64 * LINK_RECORD_BYTES;
+        // Slots handed out beyond the capacity found none free (`hemisphere`).
+        let slots = (c[LINK_TAKEN as usize].min(st.link_capacity)) as u64;
+        let per_slot = self.p.rays as u64 * LINK_RECORD_BYTES;
         Some(LinkStats {
-            capacity_bytes: st.link_capacity as u64 * per_node,
-            bytes: nodes * per_node,
-            nodes,
+            capacity_bytes: st.link_capacity as u64 * per_slot,
+            bytes: slots * per_slot,
+            nodes: c[LINK_NODES as usize] as u64,
             integrals_linked: count(LINK_LINKED),
+            rays_linked: count(LINK_LINKED_SLOTS) * self.p.rays as u64,
             integrals_traced: count(LINK_TRACED),
             integrals_traced_full: count(LINK_TRACED_FULL),
         })

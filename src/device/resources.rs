@@ -94,7 +94,7 @@ impl SceneBuffers {
             parents: Buffer::upload(ctx, "parents", &h.parents[..])?,
             child_offset: Buffer::upload(ctx, "child offsets", &h.child_offset[..])?,
             children: Buffer::upload(ctx, "children", &h.children[..])?,
-            halton: Buffer::upload(ctx, "halton", &halton_table(p.rays)[..])?,
+            halton: Buffer::upload(ctx, "halton", &halton_table(p.max_rays())[..])?,
             emitters: Buffer::upload(ctx, "emitters", &emitters[..])?,
             emitter_points: Buffer::upload(ctx, "emitter points", &points[..])?,
             sky_texels: Buffer::upload(ctx, "sky texels", &sky.0[..])?,
@@ -177,16 +177,16 @@ pub struct NodeState {
     pub links: Buffer,
     /// u32 slots `LINK_*` (`crate::constants`).
     pub link_counters: Buffer,
-    /// Nodes whose rays can keep links (0: none; not the approximate variant, or
-    /// `link_memory = 0`).
+    /// Link slots of `rays_per_integral` links (0: none; not the approximate variant, or
+    /// `link_memory = 0`); a node takes one, a level-1 node `level1_rays`.
     pub link_capacity: u32,
 }
 
-/// Link slots for a solve on `ctx` with `nodes` nodes: `link_memory` MiB of records of
-/// `rays` rays, at most an eighth of device memory and the largest allocation, and no
-/// more than the nodes; 0 unless the approximate variant (the only one whose sender
+/// Link slots for a solve on `ctx` whose nodes could take `slots`: `link_memory` MiB of
+/// records of `rays` rays, at most an eighth of device memory and the largest
+/// allocation, and no more than `slots`; 0 unless the approximate variant (the only one whose sender
 /// read depends on one node: `transport::links`).
-pub fn link_capacity(ctx: &Context, p: &SolverParams, nodes: usize) -> u32 {
+pub fn link_capacity(ctx: &Context, p: &SolverParams, slots: usize) -> u32 {
     if p.variant != Variant::Approx || p.link_memory == 0 {
         return 0;
     }
@@ -194,7 +194,7 @@ pub fn link_capacity(ctx: &Context, p: &SolverParams, nodes: usize) -> u32 {
     if ctx.info.max_allocation_bytes > 0 {
         budget = budget.min(ctx.info.max_allocation_bytes);
     }
-    (budget / (p.rays as u64 * LINK_RECORD_BYTES)).min(nodes as u64) as u32
+    (budget / (p.rays as u64 * LINK_RECORD_BYTES)).min(slots as u64) as u32
 }
 
 /// The buffers of the batches in flight; they never leave the device.
@@ -238,7 +238,11 @@ impl Resources {
         let z = |name: &str, size: u64| Buffer::zeroed(ctx, name, size);
         let device = |name: &str, size: u64| Buffer::new(ctx, name, size, MemoryLocation::GpuOnly);
         let sc = SceneBuffers::upload(ctx, scene, h, p)?;
-        let links = link_capacity(ctx, p, n);
+        // Slots every node could take: one, `level1_rays` on level 1.
+        let slots = (0..h.levels)
+            .map(|l| h.level_range(l as usize).len() * (p.rays_at(l) / p.rays) as usize)
+            .sum();
+        let links = link_capacity(ctx, p, slots);
         let state = NodeState {
             direct: z("direct", vec4_bytes(n))?,
             direct_err: z("direct error", (n * 4) as u64)?,
@@ -259,7 +263,8 @@ impl Resources {
             link_counters: z("link counters", 4 * LINK_COUNTERS as u64)?,
             link_capacity: links,
         };
-        let rays_in_flight = batch as u64 * p.rays as u64;
+        // At least one integral of level 1 (`Schedule::gather` sizes its batches to fit).
+        let rays_in_flight = (batch as u64 * p.rays as u64).max(p.max_rays() as u64);
         // The active list's batches, then the linked list's (`Schedule::gather`).
         let batches = 2 * (largest_level.div_ceil(batch as usize) as u64 + 1);
         let bb = BatchBuffers {

@@ -42,10 +42,11 @@ pub struct Schedule<'a> {
     pub k: &'a Kernels,
     pub res: &'a Resources,
     pub h: &'a Hierarchy,
-    /// Integrals per batch.
+    /// Integrals per batch (of `rays` rays; level 1's batches hold `level1` times fewer).
     pub batch: u32,
-    /// Rays per integral.
+    /// Rays per integral, and how many times that level 1's integrals take.
     pub rays: u32,
+    pub level1: u32,
     /// The delta (original) hierarchy.
     pub delta: bool,
     /// The device's largest x grid.
@@ -121,6 +122,8 @@ impl Schedule<'_> {
             from_list: (active != Active::Level) as u32,
             count_slot: NONE,
             exact_direct: exact_direct as u32,
+            rays: if l == 1 { self.rays * self.level1 } else { self.rays },
+            pad0: 0,
         };
         // Every node of the level reads its links: no ray, no search (`linked.comp`).
         let linked = active == Active::Level && l < self.linked_levels && !exact_direct;
@@ -130,23 +133,17 @@ impl Schedule<'_> {
                     Active::Listed(n) => n,
                     _ => r.len() as u32,
                 };
+                // The rays buffer holds `batch · rays` rays (at least one integral's).
+                let per_batch = (self.batch as u64 * self.rays as u64 / base.rays as u64).max(1) as u32;
                 let mut first = 0;
                 while first < count {
-                    let n = self.batch.min(count - first);
+                    let n = per_batch.min(count - first);
                     let push = GatherPush {
                         count: n,
                         batch_first: first,
                         ..base
                     };
-                    self.gather_batch(
-                        rec,
-                        &Batch {
-                            push,
-                            rays: self.rays,
-                            grid: Grid::Host,
-                        },
-                        linked,
-                    );
+                    self.gather_batch(rec, &Batch { push, grid: Grid::Host }, linked);
                     first += n;
                 }
             }
@@ -172,15 +169,7 @@ impl Schedule<'_> {
                             args: &self.res.batch.dispatch_args,
                             at: 4 * (DISPATCH_PER_BATCH * (k as u32 * nb + b)) as u64,
                         };
-                        self.gather_batch(
-                            rec,
-                            &Batch {
-                                push,
-                                rays: self.rays,
-                                grid,
-                            },
-                            linked,
-                        );
+                        self.gather_batch(rec, &Batch { push, grid }, linked);
                     }
                 }
             }

@@ -233,7 +233,7 @@ impl<'a> CpuBackend<'a> {
             scene,
             h,
             p: p.clone(),
-            halton: halton_table(p.rays),
+            halton: halton_table(p.max_rays()),
             direct: vec![Vec4::ZERO; n],
             unshot: vec![Vec4::ZERO; n],
             next: vec![Vec4::ZERO; n],
@@ -244,7 +244,7 @@ impl<'a> CpuBackend<'a> {
             mean_direct: Vec3::ZERO,
             direct_error: None,
             links: (p.variant == Variant::Approx && p.link_memory > 0)
-                .then(|| Links::new(n, p.rays as usize, link_bytes)),
+                .then(|| Links::new(n, p.rays as usize, p.level1_rays as usize, link_bytes)),
             link_bytes,
             keep_links: false,
             sparse_children: sparse_children(h, if p.variant.is_delta() { 0 } else { p.sparse_parents }),
@@ -257,7 +257,13 @@ impl<'a> CpuBackend<'a> {
     /// they read are the same, `ALGORITHM.md` §5.6), for the next solve to read instead of
     /// tracing. Returns whether they were taken (they fit this backend).
     pub fn keep_links(&mut self, links: Links) -> bool {
-        let fits = self.links.is_some() && links.fits(self.h.nodes.len(), self.p.rays as usize, self.link_bytes);
+        let fits = self.links.is_some()
+            && links.fits(
+                self.h.nodes.len(),
+                self.p.rays as usize,
+                self.p.level1_rays as usize,
+                self.link_bytes,
+            );
         if fits {
             self.links = Some(links);
             self.keep_links = true;
@@ -385,12 +391,16 @@ impl Backend for CpuBackend<'_> {
         // Links serve the sender reads. The exact first bounce traces every integral (its
         // samples are the direct irradiance at the hits) and records the links of the
         // nodes that have none, for the later bounces.
+        // Level 1 takes more rays (`level1_rays`): the first ones of the same Halton
+        // sequence, so the other levels' integrals are unchanged.
+        let rays = self.p.rays_at(level);
         let record = match self.links.as_mut() {
-            Some(l) => l.plan(&list, exact),
+            Some(l) => l.plan(&list, exact, (rays / self.p.rays) as u64),
             None => vec![false; list.len()],
         };
         let links = self.links.as_ref().filter(|_| !exact);
-        let (scene, h, p, halton, unshot) = (self.scene, self.h, &self.p, &self.halton, &self.unshot);
+        let (scene, h, p, unshot) = (self.scene, self.h, &self.p, &self.unshot);
+        let halton = &self.halton[..rays as usize];
         let bar = self.progress.bar(list.len() as u64, &format!("level {level}"));
         let results: Vec<(Gathered, Option<Kept>)> = list
             .par_iter()

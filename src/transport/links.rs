@@ -136,6 +136,9 @@ pub struct LinkStats {
     pub nodes: u64,
     /// Integrals read from links (no ray traced).
     pub integrals_linked: u64,
+    /// The rays those integrals stand for (level 1's integrals have `level1_rays` times
+    /// the others').
+    pub rays_linked: u64,
     /// Integrals traced (each records links, if it has none, while there is room): the
     /// first bounce's under `exact_first_bounce`, and the later bounces' nodes without links.
     pub integrals_traced: u64,
@@ -145,9 +148,14 @@ pub struct LinkStats {
 
 /// The links of a solve, per node.
 pub struct Links {
+    /// Rays of an integral (`rays`), and how many times that level 1's take.
     rays: usize,
+    level1: usize,
     per_node: Vec<Option<Held>>,
-    max_nodes: u64,
+    /// Room in slots of `rays` links: a node takes as many slots as its integral's rays
+    /// fill (level 1's nodes `level1_rays`).
+    max_slots: u64,
+    slots: u64,
     /// Nodes holding links (across solves that keep them), and those links' bytes.
     held: u64,
     held_bytes: u64,
@@ -155,13 +163,16 @@ pub struct Links {
 }
 
 impl Links {
-    /// Room for `capacity_bytes` of links of `rays` rays each, over `nodes` nodes.
-    pub fn new(nodes: usize, rays: usize, capacity_bytes: u64) -> Self {
+    /// Room for `capacity_bytes` of links of `rays` rays each (level 1's `level1` times
+    /// that), over `nodes` nodes.
+    pub fn new(nodes: usize, rays: usize, level1: usize, capacity_bytes: u64) -> Self {
         let per = (rays as u64 * LINK_BYTES).max(1);
         Links {
             rays,
+            level1,
             per_node: (0..nodes).map(|_| None).collect(),
-            max_nodes: capacity_bytes / per,
+            max_slots: capacity_bytes / per,
+            slots: 0,
             held: 0,
             held_bytes: 0,
             stats: LinkStats {
@@ -175,6 +186,7 @@ impl Links {
     pub fn clear(&mut self) {
         self.per_node.iter_mut().for_each(|l| *l = None);
         self.held = 0;
+        self.slots = 0;
         self.held_bytes = 0;
         self.new_solve();
     }
@@ -193,8 +205,11 @@ impl Links {
 
     /// Whether these links fit a solve with `nodes` nodes and `rays` rays (and room for
     /// `capacity_bytes`).
-    pub fn fits(&self, nodes: usize, rays: usize, capacity_bytes: u64) -> bool {
-        self.per_node.len() == nodes && self.rays == rays && self.stats.capacity_bytes == capacity_bytes
+    pub fn fits(&self, nodes: usize, rays: usize, level1: usize, capacity_bytes: u64) -> bool {
+        self.per_node.len() == nodes
+            && self.rays == rays
+            && self.level1 == level1
+            && self.stats.capacity_bytes == capacity_bytes
     }
 
     /// The links of node `j`, if it has them.
@@ -209,18 +224,21 @@ impl Links {
     /// For each node of `list` in order: whether it records links when traced (it has
     /// none yet and there is room). Counts what the gather will do. An `exact` gather (the
     /// first bounce under `exact_first_bounce`) reads no link: it traces every integral.
-    pub fn plan(&mut self, list: &[u32], exact: bool) -> Vec<bool> {
+    /// Each integral of `list` has `slots` times `rays` rays.
+    pub fn plan(&mut self, list: &[u32], exact: bool, slots: u64) -> Vec<bool> {
         list.iter()
             .map(|&j| {
                 let has = self.per_node[j as usize].is_some();
                 if has && !exact {
                     self.stats.integrals_linked += 1;
+                    self.stats.rays_linked += slots * self.rays as u64;
                     return false;
                 }
                 self.stats.integrals_traced += 1;
                 if has {
                     false
-                } else if self.held < self.max_nodes {
+                } else if self.slots + slots <= self.max_slots {
+                    self.slots += slots;
                     self.held += 1;
                     self.stats.nodes = self.held;
                     true
@@ -235,13 +253,11 @@ impl Links {
     /// Keeps the links recorded for node `j`.
     pub fn store(&mut self, j: usize, kept: Kept) {
         let held = kept.0;
-        debug_assert_eq!(
-            match &held {
-                Held::Plain(l) => l.len(),
-                Held::Full(l) => l.len(),
-            },
-            self.rays
-        );
+        let n = match &held {
+            Held::Plain(l) => l.len(),
+            Held::Full(l) => l.len(),
+        };
+        debug_assert!(n == self.rays || n == self.rays * self.level1, "{n} links");
         self.held_bytes += held.bytes();
         if let Some(old) = self.per_node[j].replace(held) {
             self.held_bytes -= old.bytes();

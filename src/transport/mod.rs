@@ -154,7 +154,7 @@ pub struct SolveStats {
     pub bounces: Vec<BounceStats>,
     pub integrals: u64,
     /// Rays per gathering integral (`rays`, or fewer where the mean free path raised the
-    /// node count: `Hierarchy::gather_params`).
+    /// node count: `Hierarchy::gather_params`); level 1's take `level1_rays` times that.
     pub rays_per_integral: u32,
     /// Gathering rays the integrals stand for (integrals × rays), traced or read from links.
     pub rays_gathered: u64,
@@ -225,7 +225,12 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
         }
         let integrals: u64 = b.integrals_per_level.iter().map(|&n| n as u64).sum();
         stats.integrals += integrals;
-        stats.rays_gathered += integrals * p.rays as u64;
+        stats.rays_gathered += b
+            .integrals_per_level
+            .iter()
+            .enumerate()
+            .map(|(l, &n)| n as u64 * p.rays_at(l as u32) as u64)
+            .sum::<u64>();
         let ratio = b.unshot_ratio;
         stats.bounces.push(b);
         if ratio < p.stop_threshold as f64 && k < p.bounces {
@@ -248,8 +253,8 @@ pub fn solve(p: &SolverParams, backend: &mut dyn Backend, progress: &Progress) -
     stats.kernel_seconds = backend.kernel_times();
     stats.links = backend.link_stats();
     stats.direct_error = backend.direct_error();
-    let linked = stats.links.as_ref().map_or(0, |l| l.integrals_linked);
-    stats.rays_traced = stats.rays_gathered.saturating_sub(linked * p.rays as u64);
+    let linked = stats.links.as_ref().map_or(0, |l| l.rays_linked);
+    stats.rays_traced = stats.rays_gathered.saturating_sub(linked);
     Ok(Solution {
         variant: p.variant,
         values,

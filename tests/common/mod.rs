@@ -63,7 +63,9 @@ pub fn rel(a: f64, b: f64) -> f64 {
 /// were traced when there was room for all), the full case traced some for want of
 /// room, and the bytes held are the nodes' records, `per_link` bytes a link (between
 /// `per_link.0` and `per_link.1` on average: the CPU keeps 8 where a node's hits are all
-/// untextured, 16 otherwise; the GPU 16).
+/// untextured, 16 otherwise; the GPU 16), a node `rays` links or, on level 1,
+/// `level1_rays` (the default) times that; the linked integrals stand for at least
+/// `rays` rays each.
 pub fn check_link_counts(
     l: &meshrad::transport::links::LinkStats,
     mib: u32,
@@ -79,8 +81,10 @@ pub fn check_link_counts(
     );
     assert_eq!(l.integrals_traced_full > 0, full, "link_memory {mib}: {l:?}");
     assert!(l.bytes <= l.capacity_bytes, "{l:?}");
+    let level1 = meshrad::SolverParams::default().level1_rays as u64;
+    assert!(l.rays_linked >= l.integrals_linked * rays, "{l:?}");
     assert!(
-        (l.nodes * rays * per_link.0..=l.nodes * rays * per_link.1).contains(&l.bytes),
+        (l.nodes * rays * per_link.0..=l.nodes * rays * level1 * per_link.1).contains(&l.bytes),
         "{per_link:?} bytes a link: {l:?}"
     );
 }

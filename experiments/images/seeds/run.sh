@@ -6,11 +6,12 @@
 # Usage (from the repository root):
 #   bash experiments/images/seeds/run.sh REF_DIR BIN OUT_DIR [LABEL=SETTINGS...]
 # REF_DIR holds cornell-image-reference-256x256-2048-seed1/ and -seed2/ (as `meshrad bench
-# accuracy --images-only --image-reference 2048 --out REF_DIR` leaves them). Each line:
+# accuracy --images-only --image-reference 2048 --out REF_DIR` leaves them).
+# LABEL=KEY=VALUE[,KEY=VALUE...]: solver settings. Each line:
 # the wall time of `meshrad solve` (load to written images, CPU backend) and the total and
 # indirect images' errors (experiments/images/image_error.py).
 set -euo pipefail
-[ $# -ge 3 ] || { sed -n '2,11p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,12p' "$0" >&2; exit 2; }
 refs=$1 bin=$2 out=$3; shift 3
 here=$(cd "$(dirname "$0")" && pwd)
 r=$refs/cornell-image-reference-256x256-2048-seed
@@ -22,7 +23,8 @@ for c in "${configs[@]}"; do
   d=$out/$label
   rm -rf "$d"
   t0=$(date +%s.%N)
-  "$bin" solve --out "$d" -q --backend cpu --set "$set"
+  sets=(); for kv in ${set//,/ }; do sets+=(--set "$kv"); done
+  "$bin" solve --out "$d" -q --backend cpu "${sets[@]}"
   t1=$(date +%s.%N)
   tot=$(python3 "$here/../image_error.py" "${r}1/total.exr" "${r}2/total.exr" "$d/total.exr" | tail -1 | sed 's/^[^:]*: //')
   ind=$(python3 "$here/../image_error.py" "${r}1/indirect.exr" "${r}2/indirect.exr" "$d/indirect.exr" | tail -1 | sed 's/^[^:]*: //')

@@ -28,6 +28,10 @@ pub struct GatherPush {
     /// 1: the reconstruct kernel reads the exact direct irradiance at each hit (shadow
     /// rays) instead of the sender level (the first bounce under `exact_first_bounce`).
     pub exact_direct: u32,
+    /// Rays per integral of this batch: `rays_per_integral`, times `level1_rays` on
+    /// level 1 (a multiple of it: the integral takes that many link slots).
+    pub rays: u32,
+    pub pad0: u32,
 }
 
 /// Who sizes a batch's grids.
@@ -40,18 +44,17 @@ pub enum Grid<'a> {
     Device { args: &'a Buffer, at: u64 },
 }
 
-/// One gathering batch: its push constants, rays per integral and grid.
+/// One gathering batch: its push constants (rays per integral among them) and grid.
 #[derive(Clone, Copy)]
 pub struct Batch<'a> {
     pub push: GatherPush,
-    pub rays: u32,
     pub grid: Grid<'a>,
 }
 
 /// Records `kernel` with one thread per ray of the batch.
 pub(super) fn per_ray(rec: &mut Recorder, kernel: &Kernel, b: &Batch) {
     match b.grid {
-        Grid::Host => rec.dispatch(kernel, &b.push, per_element(b.push.count as u64 * b.rays as u64)),
+        Grid::Host => rec.dispatch(kernel, &b.push, per_element(b.push.count as u64 * b.push.rays as u64)),
         Grid::Device { args, at } => rec.dispatch_indirect(kernel, &b.push, args, at + 4 * DISPATCH_RAYS as u64),
     }
 }
