@@ -265,11 +265,12 @@ fn links_give_the_traced_answer() {
         common::check_link_counts(&l, mib, full, 64, (8, 8));
     }
     // A textured floor: the wall's nodes see it and keep their albedos (16 bytes a link),
-    // the floor's see only the wall (8): the same answer as tracing either way.
+    // the floor's see only the wall (8): the same answer as tracing either way. (One ray
+    // count on every level, so that the bytes bound the kinds.)
     let dir = common::tmpdir();
     let corner = common::gltf::textured_corner(
         dir.path(),
-        "levels = 4\nsender_level = 3\ncoarsest = 40\nrays = 64\nstop_threshold = 1e-3\n",
+        "levels = 4\nsender_level = 3\ncoarsest = 40\nrays = 64\nlevel1_rays = 1\nstop_threshold = 1e-3\n",
     );
     let solve_corner = |link_memory: u32| {
         let (s, p) = common::load(&corner, &[("link_memory", &link_memory.to_string())]);

@@ -83,9 +83,19 @@ pub fn warnings(scene: &Scene, h: &Hierarchy, sol: &Solution, img: Option<&Image
     out
 }
 
+/// How far (a fraction of the enclosing box's extent per axis) another box may reach out
+/// of the one that encloses it: VC's ground plane overhangs its skybox by 1.7 %.
+const ENCLOSE_MARGIN: f32 = 0.05;
+
+/// Whether the box `lo..hi` holds `a..b`, up to [`ENCLOSE_MARGIN`].
+fn holds(lo: Vec3, hi: Vec3, a: Vec3, b: Vec3) -> bool {
+    let m = (hi - lo) * ENCLOSE_MARGIN;
+    a.cmpge(lo - m).all() && b.cmple(hi + m).all()
+}
+
 /// A named part (OBJ group, glTF node) of an object, the only object with lit nodes if
-/// any is lit, whose world box holds every other part's and every other object's: the
-/// object and the part's name.
+/// any is lit, whose world box holds every other part's and every other object's (up to
+/// [`ENCLOSE_MARGIN`]): the object and the part's name.
 fn enclosing_part(scene: &Scene, lit: &[usize]) -> Option<(usize, String)> {
     let lit_objects: Vec<usize> = (0..lit.len()).filter(|&o| lit[o] > 0).collect();
     if lit_objects.len() > 1 {
@@ -124,7 +134,7 @@ fn enclosing_part(scene: &Scene, lit: &[usize]) -> Option<(usize, String)> {
         let holds = boxes
             .iter()
             .enumerate()
-            .all(|(j, &(_, _, a, b))| j == i || (a.cmpge(lo).all() && b.cmple(hi).all()));
+            .all(|(j, &(_, _, a, b))| j == i || holds(lo, hi, a, b));
         holds.then(|| (o, name.to_string()))
     })
 }
@@ -137,12 +147,11 @@ fn enclosing(scene: &Scene, lit: &[usize]) -> Option<usize> {
         return None;
     }
     let (lo, hi) = object_box(&scene.objects[e], &scene.tris);
-    let inside = |a: Vec3, b: Vec3| a.cmpge(lo).all() && b.cmple(hi).all();
     (0..scene.objects.len())
         .filter(|&o| o != e)
         .all(|o| {
             let (a, b) = object_box(&scene.objects[o], &scene.tris);
-            inside(a, b)
+            holds(lo, hi, a, b)
         })
         .then_some(e)
 }
