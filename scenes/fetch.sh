@@ -7,8 +7,9 @@
 # then: meshrad solve $MESHRAD_SCENES/public/NAME/NAME.toml
 #   PBRSCENES=DIR bash scenes/fetch.sh staircase   converts from a local checkout of
 #                                   github.com/Zielon/PBRScenes instead of downloading
-# glTF models come from the Khronos glTF Sample Assets repository; each keeps its own
-# licence (listed here and in that repository's Models/NAME/README.md). McGuire's
+# glTF models come from the Khronos glTF Sample Assets repository (VC from the older
+# glTF-Sample-Models); each keeps its own licence (listed here and in that repository's
+# Models/NAME/README.md). McGuire's
 # Computer Graphics Archive (Sibenik, Conference, Lost Empire, the sports car) offers its
 # zips through a web page only: the list names it, and a scene file for an OBJ you have
 # unzipped is one `[[object]] mesh = "…obj"` line.
@@ -26,6 +27,7 @@ models=(
   "BoxTextured|BoxTextured/glTF-Binary/BoxTextured.glb|CC-BY 4.0, Cesium (also in tests/data/)"
   "AlphaBlendModeTest|AlphaBlendModeTest/glTF-Binary/AlphaBlendModeTest.glb|see its README"
   "Sponza|Sponza/glTF/Sponza.gltf|CC-BY 3.0, Frank Meinl, Crytek (see its README)"
+  "VC|https://raw.githubusercontent.com/KhronosGroup/glTF-Sample-Models/main/2.0/VC/glTF-Binary/VC.glb|by 3DRT, for testing glTF tools only, not for commercial use (see its README); a city inside a skybox: meshrad names the skybox node to leave out"
 )
 # Interiors lit by lights inside them, from github.com/Zielon/PBRScenes (a collection
 # for a Vulkan path tracer of scenes after Benedikt Bitterli's rendering resources,
@@ -84,7 +86,7 @@ for want in "$@"; do
     [ "$name" = "$want" ] || continue
     found=1
     dir=$root/$name; mkdir -p "$dir"
-    url=$base/$file
+    case $file in https://*) url=$file ;; *) url=$base/$file ;; esac
     echo "fetch.sh: $name ($lic) from $url"
     if [ "${file##*.}" = gltf ]; then
       # A .gltf names its buffers and images: fetch them from the same folder.
