@@ -961,21 +961,26 @@ fn a_box_around_the_scene_is_named_when_everything_is_black() {
     .collect();
     let mut doc = common::gltf::one_mesh(&cube, [0.5, 0.5, 0.5]);
     doc.json["nodes"][0]["name"] = serde_json::json!("Skybox");
-    let quad = doc.floats(
+    // A root node `name` with a mesh of the triangles `xyz`.
+    let add_node = |doc: &mut common::gltf::Doc, xyz: &[f32], name: &str| {
+        let at = doc.floats(xyz, "VEC3");
+        let mesh = doc.push(
+            "meshes",
+            serde_json::json!({"primitives": [{"attributes": {"POSITION": at}, "material": 0}]}),
+        );
+        let node = doc.push("nodes", serde_json::json!({"mesh": mesh, "name": name}));
+        doc.json["scenes"][0]["nodes"]
+            .as_array_mut()
+            .unwrap()
+            .push(serde_json::json!(node));
+    };
+    add_node(
+        &mut doc,
         &[
             -1., -1., 5., 1., -1., 5., 1., 1., 5., -1., -1., 5., 1., 1., 5., -1., 1., 5.,
         ],
-        "VEC3",
+        "Statue",
     );
-    let mesh = doc.push(
-        "meshes",
-        serde_json::json!({"primitives": [{"attributes": {"POSITION": quad}, "material": 0}]}),
-    );
-    let node = doc.push("nodes", serde_json::json!({"mesh": mesh, "name": "Statue"}));
-    doc.json["scenes"][0]["nodes"]
-        .as_array_mut()
-        .unwrap()
-        .push(serde_json::json!(node));
     doc.write(one.path("").as_path(), "city", common::gltf::Layout::Binary);
     one.write(
         "s.toml",
@@ -991,21 +996,13 @@ fn a_box_around_the_scene_is_named_when_everything_is_black() {
     // as there (a ground plane overhangs the skybox by 1.7 %), a part outside reaches a
     // little beyond its box (4 %).
     doc.json["nodes"][0].as_object_mut().unwrap().remove("name");
-    let ground = doc.floats(
+    add_node(
+        &mut doc,
         &[
             10.4, -1., 0., 10.8, -1., 0., 10.8, 1., 0., 10.4, -1., 0., 10.8, 1., 0., 10.4, 1., 0.,
         ],
-        "VEC3",
+        "Ground",
     );
-    let mesh = doc.push(
-        "meshes",
-        serde_json::json!({"primitives": [{"attributes": {"POSITION": ground}, "material": 0}]}),
-    );
-    let node = doc.push("nodes", serde_json::json!({"mesh": mesh, "name": "Ground"}));
-    doc.json["scenes"][0]["nodes"]
-        .as_array_mut()
-        .unwrap()
-        .push(serde_json::json!(node));
     doc.write(one.path("").as_path(), "city", common::gltf::Layout::Binary);
     let (code, err) = one.solve(&[]);
     assert_eq!(code, 0, "{err}");
