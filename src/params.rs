@@ -279,13 +279,19 @@ impl Default for SolverParams {
 }
 
 impl SolverParams {
-    /// Rays of an integral on `level`: `rays`, times `level1_rays` on level 1.
-    pub fn rays_at(&self, level: u32) -> u32 {
+    /// How many times `rays` an integral on `level` takes (`level1_rays` on level 1, else
+    /// 1): also the link slots its node takes.
+    pub fn slots_at(&self, level: u32) -> u32 {
         if level == 1 {
-            self.rays * self.level1_rays
+            self.level1_rays
         } else {
-            self.rays
+            1
         }
+    }
+
+    /// Rays of an integral on `level`.
+    pub fn rays_at(&self, level: u32) -> u32 {
+        self.rays * self.slots_at(level)
     }
 
     /// The most rays of any integral (the Halton table's length).

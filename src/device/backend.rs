@@ -330,7 +330,7 @@ impl<'a> GpuBackend<'a> {
         let levels = self.p.gather_levels().min(2);
         // Their slots: one a node, `level1_rays` a node of level 1.
         let slots = (0..levels)
-            .map(|l| self.h.level_range(l as usize).len() as u64 * self.p.rays_at(l) as u64 / self.p.rays as u64)
+            .map(|l| self.h.level_range(l as usize).len() as u64 * self.p.slots_at(l) as u64)
             .sum::<u64>();
         // `linked` is built for the variant that keeps links (as `Schedule::splits` asks).
         let links = self.k.linked.is_some() && self.res.state.link_capacity > 0;
@@ -350,8 +350,7 @@ impl<'a> GpuBackend<'a> {
             res: &self.res,
             h: self.h,
             batch: self.batch,
-            rays: self.p.rays,
-            level1: self.p.level1_rays,
+            p: &self.p,
             delta: self.p.variant.is_delta(),
             max_groups_x: self.ctx.info.max_workgroup_count_x.clamp(1, 65535),
             reset_links: !self.keep_links,

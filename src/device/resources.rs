@@ -240,7 +240,7 @@ impl Resources {
         let sc = SceneBuffers::upload(ctx, scene, h, p)?;
         // Slots every node could take: one, `level1_rays` on level 1.
         let slots = (0..h.levels)
-            .map(|l| h.level_range(l as usize).len() * (p.rays_at(l) / p.rays) as usize)
+            .map(|l| h.level_range(l as usize).len() * p.slots_at(l) as usize)
             .sum();
         let links = link_capacity(ctx, p, slots);
         let state = NodeState {

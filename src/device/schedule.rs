@@ -12,6 +12,7 @@ use super::kernels::{Kernels, Recorder};
 use super::resources::{Resources, ENERGY_READ_BYTES, LEVEL_COUNTER_BYTES};
 use crate::constants::{COUNTERS_PER_LEVEL, COUNTER_ACTIVATED, COUNTER_LINKED, DISPATCH_PER_BATCH, NONE};
 use crate::hierarchy::Hierarchy;
+use crate::params::SolverParams;
 
 /// Which integrals a gathered level has, and who knows how many.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,11 +43,11 @@ pub struct Schedule<'a> {
     pub k: &'a Kernels,
     pub res: &'a Resources,
     pub h: &'a Hierarchy,
-    /// Integrals per batch (of `rays` rays; level 1's batches hold `level1` times fewer).
+    /// Integrals per batch (of `p.rays` rays; level 1's batches hold `level1_rays` times
+    /// fewer).
     pub batch: u32,
-    /// Rays per integral, and how many times that level 1's integrals take.
-    pub rays: u32,
-    pub level1: u32,
+    /// The solve's parameters (rays per integral on each level: `rays_at`).
+    pub p: &'a SolverParams,
     /// The delta (original) hierarchy.
     pub delta: bool,
     /// The device's largest x grid.
@@ -122,7 +123,7 @@ impl Schedule<'_> {
             from_list: (active != Active::Level) as u32,
             count_slot: NONE,
             exact_direct: exact_direct as u32,
-            rays: if l == 1 { self.rays * self.level1 } else { self.rays },
+            rays: self.p.rays_at(l),
             pad0: 0,
         };
         // Every node of the level reads its links: no ray, no search (`linked.comp`).
@@ -134,7 +135,7 @@ impl Schedule<'_> {
                     _ => r.len() as u32,
                 };
                 // The rays buffer holds `batch · rays` rays (at least one integral's).
-                let per_batch = (self.batch as u64 * self.rays as u64 / base.rays as u64).max(1) as u32;
+                let per_batch = (self.batch / self.p.slots_at(l)).max(1);
                 let mut first = 0;
                 while first < count {
                     let n = per_batch.min(count - first);

@@ -395,7 +395,7 @@ impl Backend for CpuBackend<'_> {
         // sequence, so the other levels' integrals are unchanged.
         let rays = self.p.rays_at(level);
         let record = match self.links.as_mut() {
-            Some(l) => l.plan(&list, exact, (rays / self.p.rays) as u64),
+            Some(l) => l.plan(&list, exact, self.p.slots_at(level) as u64),
             None => vec![false; list.len()],
         };
         let links = self.links.as_ref().filter(|_| !exact);
