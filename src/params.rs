@@ -259,7 +259,7 @@ impl Default for SolverParams {
             kappa: 2.0,
             alpha: 1.0,
             eps_rel: 0.1,
-            eps_abs: 0.001,
+            eps_abs: 0.002,
             noise_z: 1.0,
             approx_cos: 0.5,
             plane_offset: 0.25,

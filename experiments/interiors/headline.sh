@@ -11,11 +11,13 @@
 # Usage (from the repository root):
 #   bash experiments/interiors/headline.sh OUT_DIR FILING BIN...   (binaries or commits)
 # STAIRCASE: the converted scene file (default $MESHRAD_SCENES/public/staircase/staircase.toml).
+# FIRST_ON_STAIRCASE=1: the staircase for the first binary too (one that loads it).
 set -euo pipefail
 here=$(cd "$(dirname "$0")" && pwd)
-[ $# -ge 3 ] || { sed -n '2,13p' "$0" >&2; exit 2; }
+[ $# -ge 3 ] || { sed -n '2,14p' "$0" >&2; exit 2; }
 out=$1; shift
 filing=$1 later=("${@:2}")
+[ "${FIRST_ON_STAIRCASE:-0}" = 1 ] && later=("$@")
 scenes=${MESHRAD_SCENES:-../shared/scenes}
 stair=${STAIRCASE:-$scenes/public/staircase/staircase.toml}
 mkdir -p "$out/sponza" "$out/staircase"
