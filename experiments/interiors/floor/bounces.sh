@@ -6,6 +6,7 @@
 # bounces.py prints each bounce's increment (energy estimate/reference) in the
 # indirect-only stratum and what the bounces after the fourth deliver.
 # Usage (repository root): bash experiments/interiors/floor/bounces.sh BIN OUT_DIR
+# (references already in OUT_DIR, e.g. copied from f7d3a37/, are kept)
 set -euo pipefail
 bin=$1 out=$2 d=experiments/interiors
 pts=$d/results/ray-trade/points-11.txt
@@ -14,6 +15,7 @@ for k in 0 1 2 3; do
   "$bin" probe $d/sponza-defaults.toml --points $pts --out "$out/probe-b$k.csv" --backend cpu --bounces $k -q 2>/dev/null
 done
 for k in 1 2 3 4; do
+  [ -f "$out/ref-b$k.csv" ] && continue # the references do not depend on the binary: kept
   "$bin" reference $d/sponza-defaults.toml --points $pts --samples 65536 --max-bounces $k --out "$out/ref-b$k.csv" -q
 done
 "$bin" probe $d/sponza-defaults.toml --points $pts --out "$out/probe.csv" --backend cpu -q 2>/dev/null
