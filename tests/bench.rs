@@ -58,12 +58,15 @@ fn table2_smoke() {
     for c in cols {
         let e = c["error"]["rel_rms"].as_f64().unwrap();
         assert!(e > 0.0 && e < 0.5, "{c}");
-        // The cold run does at least the solve the column times, and more.
+        // The cold run does the solve the column times, and more; but the two are
+        // separate runs, and on a loaded machine the timed solve can take longer than the
+        // cold run did (12.84 against 12.75 s once, beside other work): only their order
+        // of magnitude is checked.
         let (e2e, solve) = (
             c["seconds_end_to_end"].as_f64().unwrap(),
             c["measured"]["seconds"].as_f64().unwrap(),
         );
-        assert!(e2e > solve, "end to end {e2e} s, solve {solve} s");
+        assert!(e2e > 0.5 * solve, "end to end {e2e} s, solve {solve} s");
         let h = c["seconds_hierarchy_end_to_end"].as_f64().unwrap();
         assert!(h > 0.0 && h < e2e, "hierarchy {h} s of {e2e} s");
         // Unset, `dart_throwing` keeps the darts on the host for the CPU column and on a
