@@ -7,22 +7,13 @@ probe-b0..probe-b{K}.csv (the solve cut at k bounces, plus the final gather's ho
 PROBE.csv is the uncut probe run. The stratum and its floor are those of
 experiments/area-accuracy/errors_at_points.py, from the converged reference.
 """
-import csv
 import statistics
 import sys
+from pathlib import Path
 
 
-def ref(f):
-    rows = [l.split(",") for l in open(f).read().split("\n") if l and l[0] not in "#p"]
-    m = [sum(float(r[i]) for i in (9, 10, 11)) / 3 for r in rows]
-    se = [sum(float(r[i]) for i in (15, 16, 17)) / 3 for r in rows]
-    lit = [max(float(r[i]) for i in (6, 7, 8)) > 0 for r in rows]
-    return m, se, lit
-
-
-def est(f):
-    return [sum(float(e[c]) for c in ("indirect_r", "indirect_g", "indirect_b")) / 3 for e in csv.DictReader(open(f))]
-
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "results"))
+from bounces import est, ref  # noqa: E402  (the stratum's reading, shared)
 
 out, K = sys.argv[1], int(sys.argv[3])
 inf, se, lit = ref(sys.argv[2])

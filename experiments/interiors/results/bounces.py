@@ -19,16 +19,21 @@ def est(f):
     return [sum(float(e[c]) for c in ("indirect_r", "indirect_g", "indirect_b")) / 3 for e in csv.DictReader(open(f))]
 
 
-out = sys.argv[1]
-inf, se, lit = ref(sys.argv[2])
-R = {k: ref(f"{out}/ref-b{k}.csv")[0] for k in (1, 2, 3)}
-P = {k: est(f"{out}/probe-b{k}.csv") for k in (0, 1, 2)}
-mean = sum(inf) / len(inf)
-keep = [i for i in range(len(inf)) if not lit[i] and inf[i] >= 0.01 * mean and se[i] <= 0.05 * inf[i]]
-S = lambda v: sum(v[i] for i in keep)
-print(f"{len(keep)} indirect-only points kept")
-print(f"bounce 1: {S(P[0]) / S(R[1]):.3f}")
-print(f"bounce 2: {(S(P[1]) - S(P[0])) / (S(R[2]) - S(R[1])):.3f}")
-print(f"bounce 3: {(S(P[2]) - S(P[1])) / (S(R[3]) - S(R[2])):.3f}")
-t = S(inf)
-print(f"share of the reference: {S(R[1]) / t:.3f} {(S(R[2]) - S(R[1])) / t:.3f} {(S(R[3]) - S(R[2])) / t:.3f}, rest {(t - S(R[3])) / t:.3f}")
+def main():
+    out = sys.argv[1]
+    inf, se, lit = ref(sys.argv[2])
+    R = {k: ref(f"{out}/ref-b{k}.csv")[0] for k in (1, 2, 3)}
+    P = {k: est(f"{out}/probe-b{k}.csv") for k in (0, 1, 2)}
+    mean = sum(inf) / len(inf)
+    keep = [i for i in range(len(inf)) if not lit[i] and inf[i] >= 0.01 * mean and se[i] <= 0.05 * inf[i]]
+    S = lambda v: sum(v[i] for i in keep)
+    print(f"{len(keep)} indirect-only points kept")
+    print(f"bounce 1: {S(P[0]) / S(R[1]):.3f}")
+    print(f"bounce 2: {(S(P[1]) - S(P[0])) / (S(R[2]) - S(R[1])):.3f}")
+    print(f"bounce 3: {(S(P[2]) - S(P[1])) / (S(R[3]) - S(R[2])):.3f}")
+    t = S(inf)
+    print(f"share of the reference: {S(R[1]) / t:.3f} {(S(R[2]) - S(R[1])) / t:.3f} {(S(R[3]) - S(R[2])) / t:.3f}, rest {(t - S(R[3])) / t:.3f}")
+
+
+if __name__ == "__main__":
+    main()
