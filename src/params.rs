@@ -141,6 +141,15 @@ pub struct SolverParams {
     /// hop instead of reading the basis at that hit, up to this many hops (`ALGORITHM.md`
     /// §6); 0: the basis at every hit.
     pub short_hops: u32,
+    /// The probes' basis read (`final_gather = 0`): 0 at a point the crevice test
+    /// (`crevice_distance`, `ALGORITHM.md` §3.3) calls a crevice, where the hierarchy holds
+    /// no node and nodes on the open surface beside it would answer (`ALGORITHM.md` §6).
+    pub basis_crevice: bool,
+    /// The probes' basis read (`final_gather = 0`): a node counts only if the segment
+    /// between the point and the node, both lifted a tenth of the support off their
+    /// surfaces, meets nothing (a surface between them: the point lies inside a board or
+    /// behind a moulding's face; `ALGORITHM.md` §6).
+    pub basis_visibility: bool,
     /// Rays of a final gather at each pixel's primary hit (0: the basis read there).
     pub final_gather_pixels: u32,
     /// Without `final_gather_pixels`: rays of a final gather at the pixel samples whose
@@ -247,6 +256,8 @@ impl Default for SolverParams {
             output_level: None,
             final_gather: 1024,
             short_hops: 8,
+            basis_crevice: true,
+            basis_visibility: true,
             final_gather_pixels: 0,
             doubt_gather: 16,
             doubt_nodes: 4,

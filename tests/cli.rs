@@ -283,8 +283,9 @@ fn probe_prints_the_csv() {
     ok(&o);
     assert!(String::from_utf8_lossy(&o.stdout).starts_with("px,py,pz"));
     // Issue #33: `--read image` reads the points as the image does. Without doubt it is
-    // the basis read, the same as `--set final_gather=0`, bit for bit; with doubt (the
-    // default) it gathers where the basis is doubted and reads it elsewhere.
+    // the basis read, the same as `--set final_gather=0` without the probes' own tests
+    // of the point (`basis_crevice`, `basis_visibility`, issue #32), bit for bit; with
+    // doubt (the default) it gathers where the basis is doubted and reads it elsewhere.
     let solver = ["--rays", "64", "--set", "levels=4", "--set", "sender_level=3", "-q"];
     let read = |extra: &[&str]| -> Vec<Vec<f64>> {
         let mut a = vec!["probe", scene.to_str().unwrap(), "--points", pts.to_str().unwrap()];
@@ -298,7 +299,14 @@ fn probe_prints_the_csv() {
             .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
             .collect()
     };
-    let basis = read(&["--set", "final_gather=0"]);
+    let basis = read(&[
+        "--set",
+        "final_gather=0",
+        "--set",
+        "basis_crevice=false",
+        "--set",
+        "basis_visibility=false",
+    ]);
     assert_eq!(read(&["--read", "image", "--set", "doubt_gather=0"]), basis);
     let image = read(&["--read", "image"]);
     for (a, b) in image.iter().zip(&rows) {

@@ -13,10 +13,12 @@ use glam::{Vec2, Vec3};
 use crate::geom::rng::{hash2, hash_to_unit};
 use crate::geom::sampling::{cosine_direction, halton_table, integral_rotation, onb};
 use crate::geom::Ray;
-use crate::hierarchy::Hierarchy;
+use crate::hierarchy::poisson::Candidate;
+use crate::hierarchy::{in_crevice, Hierarchy};
 use crate::params::SolverParams;
 use crate::scene::emitter::{pixel_key, pixel_seed};
 use crate::scene::{Scene, Surface};
+use crate::transport::cpu::node_world;
 use crate::transport::estimator::Estimator;
 use crate::transport::Solution;
 
@@ -41,6 +43,12 @@ pub struct Readout<'a> {
     /// Most hops a gather ray continues where it lands nearer than the basis resolves
     /// (`SolverParams::short_hops`).
     short_hops: u32,
+    /// The probes' basis read: the crevice distance in finest-level radii where a point
+    /// in a crevice reads 0 (`SolverParams::basis_crevice`; 0: no test).
+    crevice: f32,
+    /// The probes' basis read takes only the nodes a segment from the point reaches
+    /// (`SolverParams::basis_visibility`).
+    visibility: bool,
 }
 
 /// A final gather at the pixel samples whose basis read cannot be trusted (`ALGORITHM.md`
@@ -100,6 +108,8 @@ impl<'a> Readout<'a> {
             halton: if rays > 0 { halton_table(rays) } else { Vec::new() },
             doubt: None,
             short_hops: p.short_hops,
+            crevice: if p.basis_crevice { p.crevice_distance } else { 0.0 },
+            visibility: p.basis_visibility,
         }
     }
 
@@ -115,12 +125,70 @@ impl<'a> Readout<'a> {
             self.gather(x, n)
         } else {
             Read {
-                mean: self
-                    .sol
-                    .indirect_at(self.scene, self.h, x, n, self.level)
-                    .max(Vec3::ZERO),
+                mean: self.basis_at(x, n).max(Vec3::ZERO),
                 std_err: Vec3::ZERO,
             }
+        }
+    }
+
+    /// The probes' basis read at a world-space point `(x, n)` (`final_gather = 0`;
+    /// `ALGORITHM.md` §6): the exact reconstruction on the output level of the object that
+    /// answers there ([`Solution::locate`]), with two tests of the point's own
+    /// surroundings that the hierarchy's weights cannot make. Where the crevice test of
+    /// the build (§3.3) calls the point a crevice, the read is 0: the build put no node
+    /// there because no light enters, and the nodes that would answer lie on the open
+    /// surface beside it. And a node counts only if the segment from the point to the
+    /// node, each lifted a tenth of the support along its normal, meets no surface: a
+    /// point inside a board or behind a moulding's face does not take the light of the
+    /// face in front of it. The lift keeps curved surfaces' own chords clear (the
+    /// weight's normal term ends a node's reach on a sphere before the chord sinks 5 % of
+    /// the support into it). Where the output level has no node at the point (a hole),
+    /// the next coarser level answers, as in [`reconstruct::exact`]; where it has nodes
+    /// and every one is hidden, the point is sealed off from the light they hold and
+    /// reads 0 (a coarser level's longer lift would step over the board that hides
+    /// them).
+    fn basis_at(&self, x: Vec3, n: Vec3) -> Vec3 {
+        let Some((o, p, nn)) = self.sol.locate(self.scene, self.h, x, n, self.level) else {
+            return Vec3::ZERO;
+        };
+        if self.crevice > 0.0 {
+            let obj = &self.scene.objects[o];
+            let finest = self.h.levels as usize - 1;
+            let d_min = self.crevice * obj.transform.scale * self.h.objects[o].radius[finest];
+            let index = hash2(x.x.to_bits() ^ x.y.to_bits().rotate_left(11), x.z.to_bits());
+            if in_crevice(self.scene, o, &Candidate { pos: p, normal: nn }, d_min, index) {
+                return Vec3::ZERO;
+            }
+        }
+        if !self.visibility {
+            return self.sol.indirect_on(self.h, o, p, nn, self.level);
+        }
+        let scale = self.scene.objects[o].transform.scale;
+        let values = &self.sol.values.indirect;
+        let level_read = |l: usize| {
+            let lift = 0.1 * scale * self.h.support(o, l);
+            let from = x + n * lift;
+            let (mut sum, mut wsum, mut any) = (Vec3::ZERO, 0.0f32, false);
+            self.h.for_each_read_weight(o, l, p, nn, |j, w| {
+                any = true;
+                let (xj, nj) = node_world(self.scene, self.h, j);
+                let to = xj + nj * lift;
+                let d = to - from;
+                let len = d.length();
+                if len > 0.0 && self.scene.occluded(&Ray { o: from, d: d / len }, len) {
+                    return;
+                }
+                sum += values[j].truncate() * w;
+                wsum += w;
+            });
+            // None: a hole; Some(0): every node hidden.
+            any.then(|| if wsum > 0.0 { sum / wsum } else { Vec3::ZERO })
+        };
+        let l = self.level as usize;
+        if self.sol.variant.is_delta() {
+            (0..=l).filter_map(level_read).fold(Vec3::ZERO, |a, v| a + v)
+        } else {
+            (0..=l).rev().find_map(level_read).unwrap_or(Vec3::ZERO)
         }
     }
 
